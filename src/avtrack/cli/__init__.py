@@ -1,0 +1,1 @@
+"""The ``avtrack`` command line."""
