@@ -1,0 +1,135 @@
+"""Tests of ``avtrack eval`` (avtrack.cli.eval_cmd), run through avtrack.cli.main.main with only
+this command registered, so they do not depend on the other sub-commands."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from avtrack.cli import main as cli_main
+
+GT = """\
+1,1,10,20,100,100,1,-1,-1,-1
+2,1,12,20,100,100,1,-1,-1,-1
+3,1,14,20,100,100,1,-1,-1,-1
+4,1,16,20,100,100,1,-1,-1,-1
+"""
+# one identity switch (frame 3) and one false positive (frame 4)
+RES = """\
+1,5,10,20,100,100,0.9,-1,-1,-1
+2,5,12,20,100,100,0.9,-1,-1,-1
+3,6,14,20,100,100,0.9,-1,-1,-1
+4,6,16,20,100,100,0.9,-1,-1,-1
+4,7,400,300,30,60,0.5,-1,-1,-1
+"""
+
+
+@pytest.fixture(autouse=True)
+def only_eval(monkeypatch):
+    monkeypatch.setattr(cli_main, "COMMAND_MODULES", ("eval_cmd",))
+
+
+@pytest.fixture
+def files(tmp_path: Path) -> tuple[Path, Path]:
+    gt, res = tmp_path / "gt.txt", tmp_path / "res.txt"
+    gt.write_text(GT)
+    res.write_text(RES)
+    return gt, res
+
+
+def test_eval_mot_prints_table(files, capsys):
+    gt, res = files
+    assert cli_main.main(["eval", "mot", str(gt), str(res)]) == 0
+    out = capsys.readouterr().out
+    header, row = out.splitlines()[1:3]
+    assert header.split() == "MOTA MOTP IDF1 HOTA FP FN IDSW Frag MT ML".split()
+    # MOTA = (TP - FP - IDSW) / n_gt = (4 - 1 - 1) / 4; IDF1 = 2 IDTP / (2 IDTP + IDFP + IDFN)
+    # = 4 / (4 + 3 + 2); HOTA (column 4) is checked against TrackEval in tests/metrics
+    cells = row.split()
+    del cells[4]
+    assert cells == "res 50.0 100.0 44.4 1 0 1 0 1 0".split()
+    assert "MOT15 scores" in out and "4 frames, 1 ground-truth identities" in out
+
+
+def test_eval_mot_json(files, tmp_path, capsys):
+    gt, res = files
+    out_json = tmp_path / "sub" / "scores.json"
+    rc = cli_main.main(
+        ["eval", "mot", str(gt), str(res), "--json", str(out_json), "-q", "--benchmark", "MOT15"]
+    )
+    assert rc == 0
+    assert capsys.readouterr().out == ""
+    record = json.loads(out_json.read_text())
+    assert record["benchmark"] == "MOT15" and record["result"] == str(res)
+    assert record["scores"]["MOTA"] == pytest.approx(50.0)
+    assert record["scores"]["IDSW"] == 1 and record["scores"]["FP"] == 1
+
+
+def test_eval_mot_verbose_shows_more_columns(files, capsys):
+    gt, res = files
+    assert cli_main.main(["eval", "mot", str(gt), str(res), "-v"]) == 0
+    header = capsys.readouterr().out.splitlines()[1]
+    for col in ("IDP", "IDR", "DetA", "AssA", "PT", "n_gt_ids", "n_frames"):
+        assert col in header.split()
+
+
+def test_eval_help_has_examples(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli_main.main(["eval", "mot", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "examples:" in out and "--benchmark MOT17" in out and "--json" in out
+    with pytest.raises(SystemExit):
+        cli_main.main(["eval", "--help"])
+    assert "mot" in capsys.readouterr().out
+
+
+def test_eval_requires_a_task(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli_main.main(["eval"])
+    assert exc.value.code == 2
+    assert "TASK" in capsys.readouterr().err
+
+
+def test_missing_file_is_one_line_error(files, tmp_path, capsys):
+    gt, _ = files
+    missing = tmp_path / "nope.txt"
+    assert cli_main.main(["eval", "mot", str(gt), str(missing)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"avtrack: error: {missing}: file not found\n"
+
+
+def test_malformed_file_is_one_line_error(files, tmp_path, capsys):
+    gt, _ = files
+    bad = tmp_path / "bad.txt"
+    bad.write_text("1,1,10,20,100,100,1\n2,1,abc,20,100,100,1\n")
+    assert cli_main.main(["eval", "mot", str(gt), str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert err.startswith(f"avtrack: error: {bad}, row 2: column 3 is not a number")
+
+
+def test_unscorable_result_is_one_line_error(files, tmp_path, capsys):
+    gt, _ = files
+    dup = tmp_path / "dup.txt"
+    dup.write_text("1,5,10,20,100,100,1\n1,5,50,20,100,100,1\n")
+    assert cli_main.main(["eval", "mot", str(gt), str(dup)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert f"cannot score {dup} against {gt}" in err and "id 5 more than once in frame 1" in err
+
+
+def test_json_to_directory_is_an_error(files, tmp_path, capsys):
+    gt, res = files
+    assert cli_main.main(["eval", "mot", str(gt), str(res), "--json", str(tmp_path)]) == 2
+    assert "--json must name a file" in capsys.readouterr().err
+
+
+def test_bad_benchmark_is_rejected_by_argparse(files, capsys):
+    gt, res = files
+    with pytest.raises(SystemExit) as exc:
+        cli_main.main(["eval", "mot", str(gt), str(res), "--benchmark", "MOT99"])
+    assert exc.value.code == 2
+    assert "invalid choice" in capsys.readouterr().err

@@ -1,0 +1,32 @@
+"""Shared test fixtures.
+
+Real data live outside the repository in ``../shared/data`` (or wherever the environment
+variable ``AVTRACK_SHARED_DATA`` points); tests that need them take the ``shared_data`` fixture
+and are skipped, saying where they looked, when the folder is absent.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+
+
+def shared_data_dir() -> Path:
+    """Location of the shared real data: ``$AVTRACK_SHARED_DATA`` or ``<repo>/../shared/data``."""
+    env = os.environ.get("AVTRACK_SHARED_DATA")
+    if env:
+        return Path(env)
+    return REPO_ROOT / ".." / "shared" / "data"
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """The shared data folder; skips the test when it is missing."""
+    path = shared_data_dir()
+    if not path.is_dir():
+        pytest.skip(f"../shared/data not found: {path.resolve()} (set AVTRACK_SHARED_DATA)")
+    return path
