@@ -1,0 +1,1 @@
+"""Observation and dynamics models that plug into the VEM engine."""

@@ -1,0 +1,85 @@
+r"""Constant-velocity dynamics (thesis §3.1.2 eq. 3.11, §2.2.5 eq. 2.6).
+
+State layout used by every Gaussian tracker of the package: ``s = [p, v]`` where ``p`` has
+``n_obs`` components (observed) and ``v`` holds a velocity for the first ``n_vel`` of them.
+For image boxes ``p = (x, y, w, h)`` (centre, size) and ``v = (ẋ, ẏ)``: ``d = 6``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def constant_velocity_transition(n_obs: int, n_vel: int, dt: float = 1.0) -> np.ndarray:
+    r"""Transition matrix ``D`` of shape ``(n_obs + n_vel, n_obs + n_vel)``.
+
+    :math:`p_t = p_{t-1} + \Delta t\,[v_{t-1}; 0]`, :math:`v_t = v_{t-1}`. (The printed
+    eq. 3.11 shows a zero velocity block, which would make the velocity unobservable and the
+    model not constant-velocity; eq. 2.6 has the intended form.)
+    """
+    if n_vel > n_obs or n_obs < 1 or n_vel < 0:
+        raise ValueError(f"need 0 <= n_vel <= n_obs and n_obs >= 1, got {n_obs=}, {n_vel=}")
+    if not dt > 0:
+        raise ValueError(f"dt must be > 0, got {dt}")
+    d = n_obs + n_vel
+    transition = np.eye(d)
+    transition[np.arange(n_vel), n_obs + np.arange(n_vel)] = dt
+    return transition
+
+
+def box_dynamics_covariance(
+    mu: np.ndarray, pos: float = 0.05, size: float = 0.05, vel: float = 0.05,
+) -> np.ndarray:
+    r"""Size-adaptive dynamics covariance :math:`\Lambda_n` for box states (thesis §3.1.5).
+
+    Diagonal, with standard deviations ``pos·w, pos·h`` (centre), ``size·w, size·h`` (size)
+    and ``vel·w, vel·h`` (velocity), in pixels per frame, where ``w, h`` is the target's
+    current box size. The thesis sets the diagonal to "1, 1 and 1/2 of the detected width"
+    without saying whether variance or standard deviation is meant; scaling the standard
+    deviation keeps the model invariant to image scale (a person twice as close moves and
+    jitters twice as many pixels), which is what real detections show.
+
+    Parameters
+    ----------
+    mu : ndarray (N, 6)
+        Box states ``(x, y, w, h, ẋ, ẏ)``.
+
+    Returns
+    -------
+    ndarray (N, 6, 6)
+    """
+    wh = np.maximum(mu[:, 2:4], 1.0)
+    diag = np.concatenate([pos * wh, size * wh, vel * wh], axis=1) ** 2
+    out = np.zeros((mu.shape[0], 6, 6))
+    idx = np.arange(6)
+    out[:, idx, idx] = diag
+    return out
+
+
+def cap_box_covariance(mu: np.ndarray, gamma: np.ndarray, max_std: float) -> np.ndarray:
+    r"""Bound the uncertainty of box states: every standard deviation ≤ ``max_std`` × size.
+
+    A target that receives no observation sees its covariance grow by :math:`\Lambda` each
+    frame; once it is larger than a person, its predictive density covers several people and
+    it swallows their detections. We rescale :math:`\Gamma \leftarrow S\Gamma S` with
+    :math:`S = \mathrm{diag}(\min(1, c_k/\sqrt{\Gamma_{kk}}))`, :math:`c = \texttt{max\_std}
+    \cdot(w, h, w, h, w, h)`, which keeps correlations and positive definiteness.
+
+    Parameters
+    ----------
+    mu : ndarray (N, 6)
+    gamma : ndarray (N, 6, 6)
+    max_std : float
+        > 0.
+
+    Returns
+    -------
+    ndarray (N, 6, 6)
+    """
+    if not max_std > 0:
+        raise ValueError(f"max_std must be > 0, got {max_std}")
+    wh = np.maximum(mu[:, 2:4], 1.0)
+    cap = max_std * np.concatenate([wh, wh, wh], axis=1)  # (N, 6)
+    std = np.sqrt(np.maximum(np.diagonal(gamma, axis1=1, axis2=2), 1e-300))
+    scale = np.minimum(1.0, cap / std)
+    return gamma * scale[:, :, None] * scale[:, None, :]

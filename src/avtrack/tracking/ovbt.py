@@ -1,0 +1,351 @@
+r"""OVBT: online variational-Bayesian visual multi-person tracking (thesis §3.1).
+
+Per frame: VEM on the box observation model (engine, thesis eqs. 2.22–2.29 / 3.20–3.29),
+then the visibility HMM (eqs. 3.31–3.32), death after ``death_frames`` invisible frames
+(§3.1.4), and birth from smooth sequences of clutter-assigned detections (eq. 3.30).
+Sleeping (invisible) targets stay in the engine, so a matching appearance can wake them up.
+
+Example
+-------
+>>> from avtrack.tracking.ovbt import OVBTracker
+>>> tracker = OVBTracker(image_size=(640, 480))
+>>> for boxes, scores in frames:            # boxes (M, 4) left, top, width, height
+...     out = tracker.step(boxes, scores)   # out.ids (K,), out.boxes (K, 4)
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from avtrack.io.mot import MOTData
+from avtrack.models.appearance import APPEARANCE_MODELS, AppearanceLikelihood
+from avtrack.models.dynamics import (
+    box_dynamics_covariance,
+    cap_box_covariance,
+    constant_velocity_transition,
+)
+from avtrack.models.visual import (
+    BOX_DIM,
+    STATE_DIM,
+    BoxObservationModel,
+    BoxObservations,
+    box_observation_variance,
+    ltwh_to_xywh,
+    xywh_to_ltwh,
+)
+from avtrack.tracking.birth import birth_candidates, select_births
+from avtrack.tracking.engine import VEMEngine
+from avtrack.tracking.visibility import visibility_filter
+
+
+@dataclass(frozen=True)
+class OVBTConfig:
+    """Parameters of the visual tracker (one default configuration for all sequences).
+
+    Noise levels are standard deviations as fractions of the box size (thesis §3.1.5 scales
+    the covariances with the detected box; see :func:`box_observation_variance`).
+    """
+
+    n_iter: int = 3  #: VEM iterations per frame
+    obs_std_pos: float = 0.1  #: Φ: centre std / box size
+    obs_std_size: float = 0.1  #: Φ: size std / box size
+    dyn_std_pos: float = 0.05  #: Λ: centre std per frame / box size
+    dyn_std_size: float = 0.05  #: Λ: size std per frame / box size
+    dyn_std_vel: float = 0.03  #: Λ: velocity std per frame / box size
+    update_priors: bool = True  #: M-step of the assignment priors, eq. 3.29
+    marginal_init: bool = True  #: first E-Z step with the predictive marginal, eq. 2.8
+    exclusive: bool = True  #: a target explains at most one detection per frame
+    max_state_std: float = 0.5  #: cap on every state std / box size (coasting tracks)
+    dynamics_mstep: bool = False  #: M-step of Λ, eq. 2.27 (thesis §3.1.3 keeps Λ size-based)
+    birth_frames: int = 2  #: B of eq. 3.30 (sequences of B + 1 detections)
+    birth_threshold: float = 0.0  #: birth when the log-likelihood ratio exceeds this
+    birth_velocity_std: float = 0.05  #: prior velocity std at birth / box size, per frame
+    birth_gate: float = 18.47  #: χ²₄(0.999) gate on each innovation of a birth sequence
+    startup_birth: bool = True  #: before frame B + 1, births from all frames so far (≥ 2)
+    birth_max_overlap: float = 0.5  #: reject a birth whose box lies this much inside a target's
+    visibility_stay: float = 0.9  #: π_v of the visibility HMM
+    visibility_lambda: float = 2.0  #: λ of eq. 3.32
+    visibility_window: int = 1  #: frames summed into the visibility evidence ν
+    death_frames: int = 10  #: delete a target invisible this many frames (thesis: 10)
+    min_score: float = 0.0  #: drop detections with a lower confidence
+    appearance: str = "bhattacharyya"  #: "bhattacharyya" (histograms) or "cosine" (embeddings)
+    appearance_lambda: float = 10.0  #: λ of eq. 3.5 (or κ for "cosine")
+    appearance_update: float = 0.1  #: reference-appearance update rate (0: birth appearance)
+
+    def __post_init__(self) -> None:
+        positive = ("obs_std_pos", "obs_std_size", "dyn_std_pos", "dyn_std_size",
+                    "dyn_std_vel", "max_state_std", "birth_max_overlap", "birth_velocity_std", "birth_gate", "visibility_lambda",
+                    "appearance_lambda")
+        for name in positive:
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+                raise ValueError(f"OVBTConfig.{name} must be a positive number, got {v!r}")
+        for name in ("n_iter", "birth_frames", "visibility_window", "death_frames"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 1):
+                raise ValueError(f"OVBTConfig.{name} must be an integer >= 1, got {v!r}")
+        if not 0 < self.visibility_stay < 1:
+            raise ValueError(f"OVBTConfig.visibility_stay must be in (0, 1), "
+                             f"got {self.visibility_stay!r}")
+        if self.appearance not in APPEARANCE_MODELS:
+            raise ValueError(f"OVBTConfig.appearance must be one of "
+                             f"{sorted(APPEARANCE_MODELS)}, got {self.appearance!r}")
+        if not 0 <= self.appearance_update <= 1:
+            raise ValueError(f"OVBTConfig.appearance_update must be in [0, 1], "
+                             f"got {self.appearance_update!r}")
+
+    @classmethod
+    def from_dict(cls, values: dict) -> OVBTConfig:
+        """Build from a mapping, rejecting unknown keys by name."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ValueError(f"unknown OVBT parameter(s) {unknown}; known: {sorted(known)}")
+        return cls(**values)
+
+
+@dataclass(frozen=True)
+class FrameTracks:
+    """Tracks output for one frame.
+
+    Attributes
+    ----------
+    ids : ndarray (K,) int
+        Identities (≥ 1) of the visible targets.
+    boxes : ndarray (K, 4)
+        (left, top, width, height) from the posterior means.
+    p_visible : ndarray (K,)
+        Visibility posterior of each output track.
+    """
+
+    ids: np.ndarray
+    boxes: np.ndarray
+    p_visible: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+class OVBTracker:
+    """Online visual multi-person tracker (thesis §3.1) on the VEM engine.
+
+    Parameters
+    ----------
+    config : OVBTConfig, optional
+    image_size : (width, height)
+        Sets the clutter density :math:`u(o) = 1/(W H W H)` over box centre and size.
+    """
+
+    def __init__(self, config: OVBTConfig | None = None, image_size: tuple[int, int] = (
+            1920, 1080)):
+        self.config = config or OVBTConfig()
+        w, h = image_size
+        if not (w > 0 and h > 0):
+            raise ValueError(f"image_size must be positive (width, height), got {image_size}")
+        self.image_size = (float(w), float(h))
+        self.log_clutter = -2.0 * np.log(float(w) * float(h))  # u(o): uniform centre and size
+        cfg = self.config
+        self._appearance: AppearanceLikelihood = APPEARANCE_MODELS[cfg.appearance](
+            cfg.appearance_lambda)
+        self.model = BoxObservationModel(self.log_clutter, self._appearance,
+                                         cfg.appearance_update)
+        self.transition = constant_velocity_transition(BOX_DIM, 2)
+        self.engine = VEMEngine(self.transition, [self.model], n_iter=cfg.n_iter,
+                                update_priors=cfg.update_priors,
+                                dynamics_mstep=cfg.dynamics_mstep,
+                                marginal_init=cfg.marginal_init, exclusive=cfg.exclusive)
+        self.p_visible = np.zeros(0)
+        self.invisible_run = np.zeros(0, dtype=np.int64)
+        self.mass_history = np.zeros((0, cfg.visibility_window))
+        self._pool: deque[BoxObservations] = deque(maxlen=cfg.birth_frames + 1)
+        self._next_id = 1
+        self._has_appearance: bool | None = None
+        self.frame = 0
+
+    def _dyn_cov(self, mu: np.ndarray) -> np.ndarray:
+        c = self.config
+        return box_dynamics_covariance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
+
+    def _velocity_var(self, z: np.ndarray) -> np.ndarray:
+        return (self.config.birth_velocity_std * np.maximum(z[:, 2:4], 1.0)) ** 2
+
+    def _observations(self, boxes, scores, appearance) -> BoxObservations:
+        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        m = boxes.shape[0]
+        if not np.all(np.isfinite(boxes)):
+            raise ValueError("boxes must be finite")
+        if m and np.any(boxes[:, 2:] <= 0):
+            raise ValueError("box width and height must be > 0")
+        keep = np.ones(m, dtype=bool)
+        if scores is not None:
+            scores = np.asarray(scores, dtype=float).reshape(-1)
+            if scores.shape[0] != m:
+                raise ValueError(f"got {scores.shape[0]} scores for {m} boxes")
+            keep = scores >= self.config.min_score
+        app = None
+        if appearance is not None:
+            app = np.asarray(appearance, dtype=float).reshape(m, -1)
+            if not np.all(np.isfinite(app)):
+                raise ValueError("appearance descriptors must be finite")
+            app = self._appearance.normalize(app[keep])
+        has = app is not None
+        if self._has_appearance is None:
+            self._has_appearance = has
+        elif self._has_appearance != has:
+            raise ValueError("appearance descriptors must be given for every frame or none")
+        z = ltwh_to_xywh(boxes[keep])
+        var = box_observation_variance(z, self.config.obs_std_pos, self.config.obs_std_size)
+        return BoxObservations(z, var, app)
+
+    def step(self, boxes: np.ndarray, scores: np.ndarray | None = None,
+             appearance: np.ndarray | None = None) -> FrameTracks:
+        """Process one frame of detections.
+
+        Parameters
+        ----------
+        boxes : ndarray (M, 4)
+            (left, top, width, height), pixels.
+        scores : ndarray (M,), optional
+            Detection confidences (filtered by ``config.min_score``).
+        appearance : ndarray (M, F), optional
+            Colour histograms or embeddings, per the configured appearance model.
+
+        Returns
+        -------
+        FrameTracks
+            The visible targets after this frame.
+        """
+        cfg = self.config
+        self.frame += 1
+        obs = self._observations(boxes, scores, appearance)
+        eng = self.engine
+        # --- VEM on the existing targets ---------------------------------------------------
+        if eng.n_targets:
+            inf = eng.step([obs], self._dyn_cov(eng.mu))
+            eng.gamma = cap_box_covariance(eng.mu, eng.gamma, cfg.max_state_std)
+            resp, mass = inf.responsibilities[0], inf.mass[0][1:]
+            unassigned = np.argmax(resp, axis=1) == 0
+        else:
+            mass = np.zeros(0)
+            unassigned = np.ones(len(obs), dtype=bool)
+        # --- visibility (eqs. 3.31–3.32) and death (§3.1.4) -------------------------------
+        if eng.n_targets:
+            self.mass_history = np.concatenate([mass[:, None], self.mass_history[:, :-1]], 1)
+            nu = self.mass_history.sum(axis=1)
+            self.p_visible = visibility_filter(self.p_visible, nu, cfg.visibility_stay,
+                                               cfg.visibility_lambda)
+            visible = self.p_visible > 0.5
+            self.invisible_run = np.where(visible, 0, self.invisible_run + 1)
+            keep = self.invisible_run < cfg.death_frames
+            if not keep.all():
+                self._remove(keep)
+        # --- birth (eq. 3.30) ----------------------------------------------------------------
+        self._pool.append(obs.subset(np.flatnonzero(unassigned)))
+        # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far
+        # (at least two), so that the people present from the first frame are not held back.
+        if len(self._pool) == cfg.birth_frames + 1 or (
+                cfg.startup_birth and len(self._pool) == self.frame >= 2):
+            self._birth()
+        visible = self.p_visible > 0.5
+        return FrameTracks(eng.ids[visible].copy(), xywh_to_ltwh(eng.mu[visible, :BOX_DIM]),
+                           self.p_visible[visible].copy())
+
+    def _remove(self, keep: np.ndarray) -> None:
+        self.engine.remove_targets(keep)
+        self.p_visible = self.p_visible[keep]
+        self.invisible_run = self.invisible_run[keep]
+        self.mass_history = self.mass_history[keep]
+
+    def _birth(self) -> None:
+        cfg = self.config
+        pools = [(p.z, p.var) for p in self._pool]
+        cands = birth_candidates(pools, self.transition, self._dyn_cov, self._velocity_var,
+                                 self.log_clutter, gate=cfg.birth_gate)
+        if self.engine.n_targets and cands:
+            # a new person cannot stand inside a tracked person's box: such sequences are
+            # partial / duplicate detections of that person
+            cand_boxes = xywh_to_ltwh(np.stack([c.mu[:BOX_DIM] for c in cands]))
+            tgt_boxes = xywh_to_ltwh(self.engine.mu[:, :BOX_DIM])
+            inside = _intersection_over_first(cand_boxes, tgt_boxes).max(axis=1)
+            cands = [c for c, o in zip(cands, inside, strict=True) if o <= cfg.birth_max_overlap]
+        born = select_births(cands, cfg.birth_threshold)
+        if not born:
+            return
+        k = len(born)
+        ids = np.arange(self._next_id, self._next_id + k)
+        self._next_id += k
+        mu = np.stack([b.mu for b in born])
+        gamma = np.stack([b.gamma for b in born])
+        last = self._pool[-1]
+        init = None
+        if last.appearance is not None:
+            init = np.stack([last.appearance[b.indices[-1]] for b in born])
+        self.engine.add_targets(ids, mu, gamma, [init])
+        self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
+        self.invisible_run = np.concatenate([self.invisible_run, np.zeros(k, dtype=np.int64)])
+        self.mass_history = np.vstack([self.mass_history, np.ones((k, cfg.visibility_window))])
+        # the sequences' detections are no longer available to other births
+        for f, pool in enumerate(self._pool):
+            used = np.zeros(len(pool), dtype=bool)
+            used[[int(b.indices[f]) for b in born]] = True
+            self._pool[f] = pool.subset(np.flatnonzero(~used))
+
+
+def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(K, 4), (N, 4)`` ltwh boxes -> ``(K, N)`` area(a ∩ b) / area(a)."""
+    lt = np.maximum(a[:, None, :2], b[None, :, :2])
+    rb = np.minimum(a[:, None, :2] + a[:, None, 2:], b[None, :, :2] + b[None, :, 2:])
+    inter = np.prod(np.clip(rb - lt, 0, None), axis=2)
+    return inter / np.prod(a[:, 2:], axis=1)[:, None]
+
+
+def image_size_from_detections(dets: MOTData) -> tuple[int, int]:
+    """Smallest (width, height) containing every box (a fallback when the size is unknown)."""
+    if len(dets) == 0:
+        return (1, 1)
+    right = dets.boxes[:, 0] + dets.boxes[:, 2]
+    bottom = dets.boxes[:, 1] + dets.boxes[:, 3]
+    return (int(np.ceil(max(right.max(), 1.0))), int(np.ceil(max(bottom.max(), 1.0))))
+
+
+def track_mot(
+    dets: MOTData, appearance: np.ndarray | None = None, config: OVBTConfig | None = None,
+    image_size: tuple[int, int] | None = None, n_frames: int | None = None,
+) -> MOTData:
+    """Track a whole MOTChallenge detection sequence (batch helper around :class:`OVBTracker`).
+
+    Parameters
+    ----------
+    dets : MOTData
+        Detections, sorted by frame.
+    appearance : ndarray (K, F), optional
+        One descriptor per detection row.
+    config : OVBTConfig, optional
+    image_size : (width, height), optional
+        Defaults to the extent of the detections.
+    n_frames : int, optional
+        Sequence length (defaults to the last detected frame).
+
+    Returns
+    -------
+    MOTData
+        Results (confidence = visibility posterior).
+    """
+    if appearance is not None:
+        appearance = np.asarray(appearance, dtype=float)
+        if appearance.ndim != 2 or appearance.shape[0] != len(dets):
+            raise ValueError(f"appearance must have one row per detection ({len(dets)}), got "
+                             f"shape {appearance.shape}")
+    tracker = OVBTracker(config, image_size or image_size_from_detections(dets))
+    frames, ids, boxes, conf = [], [], [], []
+    for f, sl in enumerate(dets.frame_slices(n_frames), start=1):
+        out = tracker.step(dets.boxes[sl], dets.scores[sl],
+                           None if appearance is None else appearance[sl])
+        frames.append(np.full(len(out.ids), f))
+        ids.append(out.ids)
+        boxes.append(out.boxes)
+        conf.append(out.p_visible)
+    if not frames:
+        return MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
+    return MOTData(np.concatenate(frames), np.concatenate(ids), np.vstack(boxes),
+                   np.concatenate(conf))
