@@ -1,0 +1,124 @@
+"""Tests of avtrack.tracking.engine.VEMEngine: one frame with one sure observation equals the
+Kalman update, target bookkeeping keeps every per-target array aligned, and argument checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avtrack.models.appearance import BhattacharyyaAppearance
+from avtrack.models.dynamics import box_dynamics_covariance, constant_velocity_transition
+from avtrack.models.visual import BoxObservationModel, BoxObservations, box_observation_variance
+from avtrack.tracking.engine import VEMEngine
+
+D = constant_velocity_transition(4, 2)
+P = np.hstack([np.eye(4), np.zeros((4, 2))])
+NO_CLUTTER = -1e4  # log u(o): clutter never wins
+
+
+def one_target_engine(**kwargs) -> tuple[VEMEngine, np.ndarray, np.ndarray]:
+    mu0 = np.array([100.0, 200.0, 40.0, 80.0, 2.0, -1.0])
+    a = np.random.default_rng(0).normal(size=(6, 6))
+    gamma0 = a @ a.T + np.diag([4.0, 4.0, 9.0, 9.0, 1.0, 1.0])
+    engine = VEMEngine(D, [BoxObservationModel(NO_CLUTTER)], **kwargs)
+    engine.add_targets([7], mu0[None], gamma0[None])
+    return engine, mu0, gamma0
+
+
+def kalman(mu0, gamma0, lam, z, var):
+    """Textbook predict + update with H = P = [I₄ 0], R = diag(var)."""
+    mu_p = D @ mu0
+    p_p = D @ gamma0 @ D.T + lam
+    r = np.diag(var)
+    k = p_p @ P.T @ np.linalg.inv(P @ p_p @ P.T + r)  # K = P Hᵀ (H P Hᵀ + R)⁻¹
+    return mu_p + k @ (z - P @ mu_p), (np.eye(6) - k @ P) @ p_p
+
+
+@pytest.mark.parametrize("offset", [np.zeros(4), np.array([3.0, -2.0, 1.5, 4.0])])
+@pytest.mark.parametrize("n_iter", [1, 3])
+def test_one_sure_observation_is_the_kalman_update(offset, n_iter):
+    engine, mu0, gamma0 = one_target_engine(n_iter=n_iter, marginal_init=False)
+    lam = box_dynamics_covariance(mu0[None])
+    z = (D @ mu0)[None, :4] + offset  # offset 0: exactly at the prediction
+    var = box_observation_variance(z)
+    inf = engine.step([BoxObservations(z, var)], lam)
+    mu_k, gamma_k = kalman(mu0, gamma0, lam[0], z[0], var[0])
+    np.testing.assert_allclose(inf.responsibilities[0], [[0.0, 1.0]], rtol=0, atol=1e-300)
+    np.testing.assert_allclose(inf.mu[0], mu_k, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(inf.gamma[0], gamma_k, rtol=0, atol=1e-10)
+    np.testing.assert_array_equal(engine.mu, inf.mu)  # state updated in place
+    np.testing.assert_array_equal(engine.gamma, inf.gamma)
+    np.testing.assert_allclose(inf.mass[0], [0.0, 1.0], rtol=0, atol=1e-300)
+    if not offset.any():
+        np.testing.assert_allclose(inf.mu[0], D @ mu0, rtol=0, atol=1e-10)
+
+
+def test_no_observation_is_the_prediction():
+    engine, mu0, gamma0 = one_target_engine(n_iter=2)
+    lam = box_dynamics_covariance(mu0[None])
+    inf = engine.step([BoxObservations(np.zeros((0, 4)), np.zeros((0, 4)))], lam)
+    np.testing.assert_allclose(inf.mu[0], D @ mu0, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(inf.gamma[0], D @ gamma0 @ D.T + lam[0], rtol=1e-10, atol=1e-10)
+    assert inf.responsibilities[0].shape == (0, 2)
+
+
+def test_control_shifts_the_prediction():
+    engine, mu0, _ = one_target_engine(n_iter=1)
+    lam = box_dynamics_covariance(mu0[None])
+    control = np.array([[5.0, -3.0, 0.0, 0.0, 0.0, 0.0]])
+    inf = engine.step([BoxObservations(np.zeros((0, 4)), np.zeros((0, 4)))], lam, control)
+    np.testing.assert_allclose(inf.mu[0], D @ mu0 + control[0], rtol=0, atol=1e-10)
+
+
+def test_step_without_targets_gives_everything_to_clutter():
+    engine = VEMEngine(D, [BoxObservationModel(-20.0)])
+    z = np.array([[10.0, 10.0, 5.0, 5.0], [50.0, 50.0, 5.0, 5.0]])
+    inf = engine.step([BoxObservations(z, box_observation_variance(z))], np.zeros((0, 6, 6)))
+    np.testing.assert_array_equal(inf.responsibilities[0], np.ones((2, 1)))
+    assert inf.mu.shape == (0, 6)
+    assert inf.gamma.shape == (0, 6, 6)
+
+
+def test_adding_and_removing_targets_keeps_arrays_aligned():
+    model = BoxObservationModel(-20.0, BhattacharyyaAppearance())
+    engine = VEMEngine(D, [model], n_iter=2)
+    mu = np.array([[10.0, 10, 20, 40, 0, 0], [100, 10, 20, 40, 0, 0], [200, 10, 20, 40, 0, 0]])
+    gamma = np.stack([k * np.eye(6) for k in (1.0, 2.0, 3.0)])
+    refs = np.eye(3)
+    engine.add_targets([1, 2], mu[:2], gamma[:2], [refs[:2]])
+    engine.add_targets([5], mu[2:], gamma[2:], [refs[2:]])
+    np.testing.assert_array_equal(engine.ids, [1, 2, 5])
+    assert engine.n_targets == 3
+    engine.remove_targets(np.array([True, False, True]))
+    np.testing.assert_array_equal(engine.ids, [1, 5])
+    np.testing.assert_array_equal(engine.mu, mu[[0, 2]])
+    np.testing.assert_array_equal(engine.gamma, gamma[[0, 2]])
+    np.testing.assert_array_equal(model.references, refs[[0, 2]])
+    with pytest.raises(ValueError, match=r"target ids already in use: \[5\]"):
+        engine.add_targets([5], mu[:1], gamma[:1], [refs[:1]])
+    # a frame with the remaining two targets: arrays follow the new count
+    z = mu[[2, 0], :4]
+    obs = BoxObservations(z, box_observation_variance(z), refs[[2, 0]])
+    inf = engine.step([obs], box_dynamics_covariance(engine.mu))
+    assert inf.mu.shape == (2, 6)
+    assert inf.responsibilities[0].shape == (2, 3)
+    # observation 0 is target 5 (second), observation 1 is target 1 (first)
+    np.testing.assert_array_equal(np.argmax(inf.responsibilities[0], axis=1), [2, 1])
+
+
+@pytest.mark.parametrize(("kwargs", "match"), [
+    ({"transition": np.ones((6, 4))}, r"transition must be square \(d, d\), got \(6, 4\)"),
+    ({"n_iter": 0}, "n_iter must be >= 1, got 0"),
+    ({"models": []}, "at least one observation model"),
+    ({"dynamics_floor": 0.0}, "dynamics_floor must be > 0, got 0.0"),
+])
+def test_bad_constructor_arguments(kwargs, match):
+    args = {"transition": D, "models": [BoxObservationModel(-20.0)], **kwargs}
+    with pytest.raises(ValueError, match=match):
+        VEMEngine(**args)
+
+
+def test_step_needs_one_observation_set_per_model():
+    engine, mu0, _ = one_target_engine()
+    with pytest.raises(ValueError, match="expected 1 observation sets, got 2"):
+        engine.step([None, None], box_dynamics_covariance(mu0[None]))
