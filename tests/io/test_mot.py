@@ -132,14 +132,13 @@ def test_binary_file(tmp_path):
         read_mot(path)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: read_mot silently truncates a non-integer identity (column 2) to an integer "
-    "(2.7 -> 2) instead of raising InputError naming the file and row (STYLE 6: no silent "
-    "coercion); a NaN identity silently becomes -1."))
 def test_non_integer_id_is_rejected(tmp_path):
     path = write(tmp_path, "1,2.7,10,20,30,40,1,1,1\n", "gt.txt")
     with pytest.raises(InputError, match=where(path, 1) + "id"):
         read_mot(path, kind="gt")
+    nan_id = write(tmp_path, "1,nan,10,20,30,40,1\n", "gt2.txt")
+    with pytest.raises(InputError, match=where(nan_id, 1) + "id"):
+        read_mot(nan_id, kind="gt")
 
 
 def test_motdata_validation():

@@ -107,11 +107,13 @@ def _parse_row(text: str, path: Path, row: int) -> list[float]:
         except ValueError:
             raise InputError(f"column {col} is not a number: {p!r}", path, row) from None
         values.append(v)
-    frame, _tid, left, top, w, h = values[:6]
+    frame, tid, left, top, w, h = values[:6]
     for name, v in (("frame", frame), ("left", left), ("top", top), ("width", w),
                     ("height", h)):
         if not math.isfinite(v):
             raise InputError(f"{name} is {v}, expected a finite number", path, row)
+    if not math.isfinite(tid) or tid != int(tid):
+        raise InputError(f"id (column 2) must be an integer, got {parts[1]!r}", path, row)
     if frame != int(frame) or frame < 1:
         raise InputError(f"frame must be an integer >= 1, got {parts[0]!r}", path, row)
     if w <= 0 or h <= 0:
