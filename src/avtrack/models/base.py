@@ -101,3 +101,53 @@ class ObservationModel(ABC):
 
     def update_targets(self, obs: Any, resp: np.ndarray) -> None:  # noqa: B027
         """End of the frame: update per-target parameters from the final responsibilities."""
+
+
+class DiagonalObservationModel(ObservationModel):
+    r"""An observation model that sees the first ``observed_dim`` state components,
+    :math:`P = [I_k\ 0]`, with diagonal observation covariances :math:`\Phi_{tm}`.
+
+    When :math:`P\Gamma_{tn}P^\top` is diagonal too (constant-velocity states, see
+    :func:`~avtrack.tracking.vem.cv_pattern`), its E-Z and E-S quantities need only the
+    observed means and variances: the engine then calls the ``*_diagonal`` methods, which give
+    the same numbers as :meth:`log_likelihood` and :meth:`information` with less work.
+    """
+
+    #: Number ``k`` of observed (leading) state components.
+    observed_dim: int
+
+    @abstractmethod
+    def log_likelihood_diagonal(
+        self, obs: Any, mu: np.ndarray, var: np.ndarray, marginal: bool = False,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        r""":meth:`log_likelihood` when :math:`P\Gamma_{tn}P^\top` is diagonal.
+
+        Parameters
+        ----------
+        obs : model-specific frame observations
+        mu : ndarray (N, k)
+            Observed part :math:`P\mu_{tn}` of the means.
+        var : ndarray (N, k)
+            Diagonal of :math:`P\Gamma_{tn}P^\top`.
+        marginal : bool
+            As in :meth:`log_likelihood`.
+
+        Returns
+        -------
+        log_tau : ndarray (M, N)
+        log_clutter : ndarray (M,)
+        """
+
+    @abstractmethod
+    def information_diagonal(self, obs: Any, resp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`information` restricted to the observed components, whose precision is
+        diagonal: ``info_diag (N, k)`` and ``info_vector (N, k)``."""
+
+    def responsibilities_diagonal(
+        self, obs: Any, mu: np.ndarray, var: np.ndarray, log_prior: np.ndarray,
+        marginal: bool = False, exclusive: bool = False,
+    ) -> np.ndarray:
+        """:meth:`responsibilities` from :meth:`log_likelihood_diagonal`."""
+        log_tau, log_clutter = self.log_likelihood_diagonal(obs, mu, var, marginal)
+        alpha = e_z_step(log_tau, log_clutter, log_prior)  # eq. 2.25 (eq. 2.8 if marginal)
+        return exclusive_projection(alpha) if exclusive else alpha

@@ -48,12 +48,19 @@ def box_dynamics_covariance(
     -------
     ndarray (N, 6, 6)
     """
-    wh = np.maximum(mu[:, 2:4], 1.0)
-    diag = np.concatenate([pos * wh, size * wh, vel * wh], axis=1) ** 2
+    diag = box_dynamics_variance(mu, pos, size, vel)
     out = np.zeros((mu.shape[0], 6, 6))
     idx = np.arange(6)
     out[:, idx, idx] = diag
     return out
+
+
+def box_dynamics_variance(
+    mu: np.ndarray, pos: float = 0.05, size: float = 0.05, vel: float = 0.05,
+) -> np.ndarray:
+    """Diagonal ``(N, 6)`` of :func:`box_dynamics_covariance` (the whole of it: Λ is diagonal)."""
+    wh = np.maximum(mu[:, 2:4], 1.0)
+    return np.concatenate([pos * wh, size * wh, vel * wh], axis=1) ** 2  # (std · size)²
 
 
 def cap_box_covariance(mu: np.ndarray, gamma: np.ndarray, max_std: float) -> np.ndarray:
@@ -76,10 +83,16 @@ def cap_box_covariance(mu: np.ndarray, gamma: np.ndarray, max_std: float) -> np.
     -------
     ndarray (N, 6, 6)
     """
+    scale = cap_box_scale(mu, np.diagonal(gamma, axis1=1, axis2=2), max_std)
+    return gamma * scale[:, :, None] * scale[:, None, :]  # S Γ S
+
+
+def cap_box_scale(mu: np.ndarray, variances: np.ndarray, max_std: float) -> np.ndarray:
+    """The diagonal ``(N, 6)`` of ``S`` in :func:`cap_box_covariance`, from the box states
+    ``mu (N, 6)`` and the variances ``(N, 6)`` (the diagonal of Γ)."""
     if not max_std > 0:
         raise ValueError(f"max_std must be > 0, got {max_std}")
     wh = np.maximum(mu[:, 2:4], 1.0)
-    cap = max_std * np.concatenate([wh, wh, wh], axis=1)  # (N, 6)
-    std = np.sqrt(np.maximum(np.diagonal(gamma, axis1=1, axis2=2), 1e-300))
-    scale = np.minimum(1.0, cap / std)
-    return gamma * scale[:, :, None] * scale[:, None, :]
+    cap = max_std * np.concatenate([wh, wh, wh], axis=1)  # c = max_std (w, h, w, h, w, h)
+    std = np.sqrt(np.maximum(variances, 1e-300))
+    return np.minimum(1.0, cap / std)  # S = min(1, c / sqrt(Γ_kk))

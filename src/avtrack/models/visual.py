@@ -13,27 +13,31 @@ projection ``P = [I_4 0]``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from avtrack.models.appearance import AppearanceLikelihood
-from avtrack.models.base import ObservationModel
+from avtrack.models.base import DiagonalObservationModel
 
 BOX_DIM = 4
 STATE_DIM = 6
 _LOG_2PI = np.log(2 * np.pi)
+_MINUS_HALF = np.full(BOX_DIM, -0.5)
 
 
 def ltwh_to_xywh(boxes: np.ndarray) -> np.ndarray:
     """``(K, 4)`` (left, top, width, height) -> (centre x, centre y, width, height)."""
-    b = np.asarray(boxes, dtype=float)
-    return np.concatenate([b[:, :2] + 0.5 * b[:, 2:4], b[:, 2:4]], axis=1)
+    b = np.array(boxes, dtype=float)
+    b[:, :2] += 0.5 * b[:, 2:4]  # centre = top-left + size / 2
+    return b
 
 
 def xywh_to_ltwh(boxes: np.ndarray) -> np.ndarray:
     """``(K, 4)`` (centre x, centre y, width, height) -> (left, top, width, height)."""
-    b = np.asarray(boxes, dtype=float)
-    return np.concatenate([b[:, :2] - 0.5 * b[:, 2:4], b[:, 2:4]], axis=1)
+    b = np.array(boxes, dtype=float)
+    b[:, :2] -= 0.5 * b[:, 2:4]  # top-left = centre - size / 2
+    return b
 
 
 def box_observation_variance(z: np.ndarray, pos: float = 0.1, size: float = 0.2):
@@ -89,12 +93,30 @@ class BoxObservations:
     def __len__(self) -> int:
         return int(self.z.shape[0])
 
+    # Per-frame constants of the likelihood and the E-S step, computed once per frame.
+    @cached_property
+    def inv_var(self) -> np.ndarray:
+        r"""``(M, 4)`` diagonal of :math:`\Phi_{tm}^{-1}`."""
+        return 1.0 / self.var
+
+    @cached_property
+    def information_terms(self) -> np.ndarray:
+        r"""``(M, 8)``: the diagonal of :math:`\Phi_{tm}^{-1}` and :math:`\Phi_{tm}^{-1}o_{tm}`,
+        side by side (their α-weighted sums are the E-S terms, eqs. 2.23–2.24)."""
+        return np.concatenate([self.inv_var, self.z * self.inv_var], axis=1)
+
+    @cached_property
+    def log_normaliser(self) -> np.ndarray:
+        r"""``(M,)`` :math:`-\frac12\log|2\pi\Phi_{tm}|`, the log normaliser of
+        :math:`\mathcal{N}(o_{tm}; \cdot, \Phi_{tm})`."""
+        return -0.5 * (np.log(self.var).sum(axis=1) + BOX_DIM * _LOG_2PI)
+
     def subset(self, idx: np.ndarray) -> BoxObservations:
         app = None if self.appearance is None else self.appearance[idx]
         return BoxObservations(self.z[idx], self.var[idx], app)
 
 
-class BoxObservationModel(ObservationModel):
+class BoxObservationModel(DiagonalObservationModel):
     r"""Gaussian box likelihood with a uniform clutter class and optional appearance.
 
     E-Z (thesis eq. 3.21 / 2.25):
@@ -126,6 +148,7 @@ class BoxObservationModel(ObservationModel):
     """
 
     name = "visual"
+    observed_dim = BOX_DIM
 
     def __init__(
         self, log_clutter_density: float, appearance: AppearanceLikelihood | None = None,
@@ -139,44 +162,69 @@ class BoxObservationModel(ObservationModel):
         self.appearance = appearance
         self.appearance_update = float(appearance_update)
         self.references: np.ndarray | None = None  # (N, F)
+        self._log_clutter_cache: dict[int, np.ndarray] = {}
 
     def n_observations(self, obs: BoxObservations) -> int:
         return len(obs)
 
     def log_likelihood(self, obs: BoxObservations, mu: np.ndarray, gamma: np.ndarray,
                        marginal: bool = False):
+        if not marginal:  # eq. 3.21 / 2.25 needs only the diagonal of PΓPᵀ
+            var = np.diagonal(gamma, axis1=1, axis2=2)[:, :BOX_DIM]
+            return self.log_likelihood_diagonal(obs, mu[:, :BOX_DIM], var, False)
+        # eq. 2.8: N(o; Pμ, PΓPᵀ + Φ)
         r = obs.z[:, None, :] - mu[None, :, :BOX_DIM]  # (M, N, 4)
-        if marginal:  # eq. 2.8: N(o; Pμ, PΓPᵀ + Φ)
-            s = gamma[None, :, :BOX_DIM, :BOX_DIM] + obs.var[:, None, :, None] * np.eye(BOX_DIM)
-            chol = np.linalg.cholesky(s)  # (M, N, 4, 4)
-            y = np.linalg.solve(chol, r[..., None])[..., 0]
-            maha = np.einsum("mnk,mnk->mn", y, y)
-            logdet = 2 * np.log(np.diagonal(chol, axis1=2, axis2=3)).sum(axis=2)
-            log_tau = -0.5 * (maha + logdet + BOX_DIM * _LOG_2PI)
-        else:  # eq. 3.21 / 2.25: N(o; Pμ, Φ) exp(-½ tr(Pᵀ Φ⁻¹ P Γ))
-            inv_var = 1.0 / obs.var  # (M, 4)
-            maha = np.einsum("mnk,mk->mn", r * r, inv_var)
-            logdet = np.log(obs.var).sum(axis=1)  # (M,)
-            gvar = np.diagonal(gamma, axis1=1, axis2=2)[:, :BOX_DIM]  # (N, 4)
-            trace = inv_var @ gvar.T  # tr(Pᵀ Φ⁻¹ P Γ) for diagonal Φ, (M, N)
-            log_tau = -0.5 * (maha + logdet[:, None] + BOX_DIM * _LOG_2PI + trace)
+        s = gamma[None, :, :BOX_DIM, :BOX_DIM] + obs.var[:, None, :, None] * np.eye(BOX_DIM)
+        chol = np.linalg.cholesky(s)  # (M, N, 4, 4)
+        y = np.linalg.solve(chol, r[..., None])[..., 0]
+        maha = np.einsum("mnk,mnk->mn", y, y)
+        logdet = 2 * np.log(np.diagonal(chol, axis1=2, axis2=3)).sum(axis=2)
+        log_tau = -0.5 * (maha + logdet + BOX_DIM * _LOG_2PI)
+        return self._with_appearance(obs, log_tau), self._log_clutter(len(obs))
+
+    def log_likelihood_diagonal(self, obs: BoxObservations, mu: np.ndarray, var: np.ndarray,
+                                marginal: bool = False):
+        r = obs.z[:, None, :] - mu  # o - Pμ, (M, N, 4)
+        # (the sums over the 4 components are products with (-½, -½, -½, -½))
+        if marginal:  # eq. 2.8: N(o; Pμ, PΓPᵀ + Φ) with PΓPᵀ + Φ = diag(s)
+            s = obs.var[:, None, :] + var  # (M, N, 4)
+            log_tau = (r * r / s + np.log(s)).dot(_MINUS_HALF) - 0.5 * BOX_DIM * _LOG_2PI
+        else:  # eq. 3.21 / 2.25: N(o; Pμ, Φ) exp(-½ tr(Pᵀ Φ⁻¹ P Γ)), Φ and PΓPᵀ diagonal:
+            # -½ Σ_k (r_k² + Γ_kk) / φ_k + log normaliser
+            log_tau = ((r * r + var) * obs.inv_var[:, None, :]).dot(_MINUS_HALF)
+            log_tau += obs.log_normaliser[:, None]
+        return self._with_appearance(obs, log_tau), self._log_clutter(len(obs))
+
+    def _log_clutter(self, m: int) -> np.ndarray:
+        """``(m,)`` read-only array of :math:`\log u(o)`, shared between calls."""
+        out = self._log_clutter_cache.get(m)
+        if out is None:
+            out = np.full(m, self.log_clutter_density)
+            out.flags.writeable = False
+            self._log_clutter_cache[m] = out
+        return out
+
+    def _with_appearance(self, obs: BoxObservations, log_tau: np.ndarray) -> np.ndarray:
+        """``log_tau (M, N)`` times the appearance ratio b(h_m; h_n) / u(h_m), eq. 3.21."""
         if (self.appearance is not None and obs.appearance is not None
-                and self.references is not None and len(self.references) == mu.shape[0]):
+                and self.references is not None and len(self.references) == log_tau.shape[1]):
             log_tau = log_tau + self.appearance.log_ratio(obs.appearance, self.references)
-        log_clutter = np.full(len(obs), self.log_clutter_density)
-        return log_tau, log_clutter
+        return log_tau
 
     def information(self, obs: BoxObservations, resp: np.ndarray, dim: int):
-        a = resp[:, 1:]  # (M, N): targets only, clutter plays no role (§3.1.2)
-        n = a.shape[1]
-        inv_var = 1.0 / obs.var
-        j_diag = a.T @ inv_var  # Σ_m α_mn Pᵀ Φ_m⁻¹ P (diagonal), (N, 4)
+        j_diag, h_obs = self.information_diagonal(obs, resp)
+        n = j_diag.shape[0]
         h = np.zeros((n, dim))
-        h[:, :BOX_DIM] = a.T @ (obs.z * inv_var)  # Σ_m α_mn Pᵀ Φ_m⁻¹ o_m
+        h[:, :BOX_DIM] = h_obs
         info = np.zeros((n, dim, dim))
         idx = np.arange(BOX_DIM)
         info[:, idx, idx] = j_diag
         return info, h
+
+    def information_diagonal(self, obs: BoxObservations, resp: np.ndarray):
+        a = resp[:, 1:]  # (M, N): targets only, clutter plays no role (§3.1.2)
+        terms = a.T.dot(obs.information_terms)  # (N, 8)
+        return terms[:, :BOX_DIM], terms[:, BOX_DIM:]  # Σ_m α_mn Pᵀ Φ_m⁻¹ P, Σ_m α_mn Pᵀ Φ_m⁻¹ o_m
 
     # --- per-target reference appearances -------------------------------------------------
     def add_targets(self, count: int, init: np.ndarray | None = None) -> None:

@@ -99,11 +99,11 @@ def birth_candidates(
     mu = np.zeros((c, d))
     mu[:, :k] = z0
     gamma = np.zeros((c, d, d))
-    gamma[:, np.arange(k), np.arange(k)] = var0
-    vel = velocity_var(z0)
-    gamma[:, np.arange(k, d), np.arange(k, d)] = vel
+    diag = np.arange(d)
+    gamma[:, diag, diag] = np.concatenate([var0, velocity_var(z0)], axis=1)
     score = np.zeros(c)
     chains = np.arange(c)[:, None]
+    off_diagonal = ~np.eye(k, dtype=bool)
     for z, var in pools[1:]:
         m = z.shape[0]
         if m == 0 or mu.shape[0] == 0:
@@ -111,31 +111,40 @@ def birth_candidates(
         # Kalman prediction, eq. 2.21
         gamma = symmetrize(transition @ gamma @ transition.T + dynamics_cov(mu))
         mu = mu @ transition.T
-        # innovation covariance S = P Γ Pᵀ + Φ_m for every (chain, observation) pair
-        s = gamma[:, None, :k, :k] + var[None, :, :, None] * np.eye(k)  # (C, M, k, k)
-        r = z[None, :, :] - mu[:, None, :k]  # (C, M, k)
-        s_inv = np.linalg.inv(s)
-        maha = np.einsum("cmi,cmij,cmj->cm", r, s_inv, r)
-        _, logdet = np.linalg.slogdet(s)
-        loglik = -0.5 * (maha + logdet + k * _LOG_2PI)
+        r = z[None, :, :] - mu[:, None, :k]  # innovation o_m - P μ, (C, M, k)
+        diagonal = not gamma[:, :k, :k][:, off_diagonal].any()
+        if diagonal:  # P Γ Pᵀ diagonal (constant-velocity boxes): S is diagonal too
+            s = gamma[:, diag[:k], diag[:k]][:, None, :] + var[None]  # (C, M, k)
+            maha = (r * r / s).sum(axis=2)  # rᵀ S⁻¹ r
+            logdet = np.log(s).sum(axis=2)  # log |S|
+        else:  # innovation covariance S = P Γ Pᵀ + Φ_m for every (chain, observation) pair
+            s = gamma[:, None, :k, :k] + var[None, :, :, None] * np.eye(k)  # (C, M, k, k)
+            s_inv = np.linalg.inv(s)
+            maha = np.einsum("cmi,cmij,cmj->cm", r, s_inv, r)  # rᵀ S⁻¹ r
+            _, logdet = np.linalg.slogdet(s)
+        loglik = -0.5 * (maha + logdet + k * _LOG_2PI)  # log N(o_m; P μ, S)
         total = np.where(maha < gate, score[:, None] + loglik, -np.inf)
         # beam: best chains for each observation
         order = np.argsort(-total, axis=0)[:beam]  # (beam, M)
         ci = order.ravel()
-        mi = np.tile(np.arange(m), order.shape[0])
-        ok = np.isfinite(total[ci, mi])
-        ci, mi = ci[ok], mi[ok]
-        # Kalman update of the kept pairs
-        kgain = gamma[ci, :, :k] @ s_inv[ci, mi]  # (K, d, k)
-        mu = mu[ci] + np.einsum("cik,ck->ci", kgain, r[ci, mi])
-        gamma = symmetrize(gamma[ci] - kgain @ gamma[ci, :k, :])
+        mi = np.arange(ci.shape[0]) % m  # the observation (column) of each entry of ``order``
         score = total[ci, mi]
+        ok = score > -np.inf  # passed every gate
+        ci, mi, score = ci[ok], mi[ok], score[ok]
+        # Kalman update of the kept pairs
+        r = r[ci, mi]
+        if diagonal:  # K = Γ Pᵀ S⁻¹, (K, d, k)
+            kgain = gamma[ci, :, :k] / s[ci, mi][:, None, :]
+        else:
+            kgain = gamma[ci, :, :k] @ s_inv[ci, mi]
+        mu = mu[ci] + (kgain @ r[:, :, None])[:, :, 0]  # μ + K r
+        gamma = gamma[ci]
+        gamma = symmetrize(gamma - kgain @ gamma[:, :k, :])  # (I - K P) Γ
         chains = np.concatenate([chains[ci], mi[:, None]], axis=1)
     n_later = len(pools) - 1
     llr = score - n_later * log_clutter_density
     order = np.argsort(-llr)
-    return [BirthCandidate(chains[i].copy(), float(llr[i]), mu[i].copy(), gamma[i].copy())
-            for i in order]
+    return [BirthCandidate(chains[i], float(llr[i]), mu[i], gamma[i]) for i in order]
 
 
 def select_births(candidates: Sequence[BirthCandidate], threshold: float) -> list[BirthCandidate]:

@@ -11,14 +11,27 @@ and :meth:`remove_targets`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from avtrack.models.base import ObservationModel
-from avtrack.tracking.vem import e_s_step, m_step_dynamics, m_step_priors, predict, symmetrize
+from avtrack.models.base import DiagonalObservationModel, ObservationModel
+from avtrack.tracking.vem import (
+    CVStates,
+    cv_join,
+    cv_pattern,
+    cv_split,
+    e_s_step,
+    e_s_step_cv,
+    m_step_dynamics,
+    m_step_priors,
+    predict,
+    predict_cv,
+    symmetrize,
+)
 
 
 @dataclass(frozen=True)
@@ -69,6 +82,15 @@ class VEMEngine:
         First E-Z step of each frame with the exact predictive assignment likelihood (thesis
         eq. 2.8) instead of the variational one (eq. 2.25); see
         :meth:`ObservationModel.log_likelihood`.
+
+    Notes
+    -----
+    When ``D`` is a constant-velocity transition
+    (:func:`~avtrack.models.dynamics.constant_velocity_transition`), every model is a
+    :class:`~avtrack.models.base.DiagonalObservationModel` of its position components and
+    :math:`\Gamma`, :math:`\Lambda` have the pattern of :func:`~avtrack.tracking.vem.cv_pattern`
+    (as they do for box trackers), :meth:`step` runs the same updates in the closed forms of
+    :func:`~avtrack.tracking.vem.predict_cv` and :func:`~avtrack.tracking.vem.e_s_step_cv`.
     """
 
     def __init__(
@@ -94,6 +116,12 @@ class VEMEngine:
         self.marginal_init = bool(marginal_init)
         self.exclusive = bool(exclusive)
         d = transition.shape[0]
+        self._cv = _constant_velocity(transition, self.models, self.dynamics_mstep)
+        if self._cv is not None:
+            self._cv_off = ~cv_pattern(d, self._cv[0])  # entries a CV Γ or Λ keeps at 0
+        # (mu, gamma, their CVStates) as left by the last step: reused while ``mu`` and ``gamma``
+        # are those very (read-only) arrays
+        self._cv_cache: tuple[np.ndarray, np.ndarray, CVStates] | None = None
         self.ids = np.zeros(0, dtype=np.int64)
         self.mu = np.zeros((0, d))
         self.gamma = np.zeros((0, d, d))
@@ -134,6 +162,25 @@ class VEMEngine:
         for model in self.models:
             model.remove_targets(keep)
 
+    def scale_covariances(self, scale: np.ndarray) -> None:
+        r""":math:`\Gamma_n \leftarrow S_n\Gamma_n S_n` with :math:`S_n = \mathrm{diag}(s_n)`, for
+        ``scale (N, d)`` (e.g. the cap of
+        :func:`~avtrack.models.dynamics.cap_box_covariance`)."""
+        scale = np.asarray(scale, dtype=float).reshape(self.n_targets, self.dim)
+        gamma = self.gamma * scale[:, :, None] * scale[:, None, :]  # S Γ S
+        states = self._cached_cv_states()
+        if states is None:
+            self.gamma = gamma
+            return
+        n_vel, k, _ = self._cv
+        s_p = scale[:, :k]
+        s_v = np.zeros_like(s_p)
+        s_v[:, :n_vel] = scale[:, k:]
+        self._store_cv(self.mu, gamma, states._replace(
+            var_p=states.var_p * s_p * s_p,  # s_p Γ_pp s_p
+            var_v=states.var_v * s_v * s_v,  # s_v Γ_vv s_v
+            cov=states.cov * s_p * s_v))  # s_p Γ_pv s_v
+
     def step(
         self, observations: Sequence[Any], lam: np.ndarray, control: np.ndarray | None = None,
     ) -> FrameInference:
@@ -143,8 +190,8 @@ class VEMEngine:
         ----------
         observations : sequence
             One frame-observation object per model.
-        lam : ndarray (N, d, d)
-            Dynamics covariance :math:`\Lambda_{tn}` for this frame.
+        lam : ndarray (N, d, d) or (N, d)
+            Dynamics covariance :math:`\Lambda_{tn}` for this frame, or its diagonal.
         control : ndarray (N, d), optional
             Additive control term of the prediction (ego-motion, thesis eq. 3.34).
 
@@ -156,7 +203,20 @@ class VEMEngine:
             raise ValueError(f"expected {len(self.models)} observation sets, "
                              f"got {len(observations)}")
         n, d = self.n_targets, self.dim
-        lam = np.asarray(lam, dtype=float).reshape(n, d, d)
+        lam = np.asarray(lam, dtype=float)
+        if lam.shape == (n, d):  # diagonal Λ
+            if self._cv is not None:
+                states = self._cached_cv_states()
+                if states is not None:
+                    return self._step_cv(observations, states, self._cv_diagonal(lam), control)
+            lam = lam[:, :, None] * np.eye(d)
+        lam = lam.reshape(n, d, d)
+        if self._cv is not None and not lam[:, self._cv_off].any():
+            states = self._cached_cv_states()
+            if states is not None:
+                lam_states = cv_split(np.zeros((n, d)), lam, self._cv[0])
+                return self._step_cv(observations, states,
+                                     lam_states._replace(mu_p=None, mu_v=None), control)
         dgd = symmetrize(self.transition @ self.gamma @ self.transition.T)  # D Γ_{t-1} Dᵀ
         mu_pred, gamma_pred = predict(self.mu, self.gamma, self.transition, lam, control)
         prec_pred = symmetrize(np.linalg.inv(gamma_pred))  # term #3 of eq. 4.26
@@ -177,14 +237,105 @@ class VEMEngine:
                 info += j
                 vec += h
             mu, gamma = e_s_step(mu_pred, prec_pred, info, vec)  # E-S step, eqs. 2.23–2.24
+            mass = [m.assigned_mass(r) for m, r in zip(self.models, resps, strict=True)]
             if self.update_priors:  # M step, eq. 3.29
-                log_priors = [m_step_priors(m.assigned_mass(r))
-                              for m, r in zip(self.models, resps, strict=True)]
+                log_priors = [m_step_priors(a) for a in mass]
             if self.dynamics_mstep and n:  # M step, eq. 2.27
                 lam = m_step_dynamics(mu, gamma, mu_pred, dgd, floor)
                 prec_pred = symmetrize(np.linalg.inv(dgd + lam))
+        return self._finish(observations, mu, gamma, resps, mass)
+
+    def _cached_cv_states(self) -> CVStates | None:
+        """The targets as :class:`CVStates` when the constant-velocity path applies, else None."""
+        cache = self._cv_cache
+        if cache is not None and cache[0] is self.mu and cache[1] is self.gamma:
+            return cache[2]
+        if self._cv is None or self.gamma[:, self._cv_off].any():
+            return None
+        return cv_split(self.mu, self.gamma, self._cv[0])
+
+    def _cv_diagonal(self, lam: np.ndarray) -> CVStates:
+        """A diagonal ``lam (N, d)`` as the covariances of :class:`CVStates` with zero means."""
+        n_vel, k, _ = self._cv
+        lam_v = np.zeros((lam.shape[0], k))
+        lam_v[:, :n_vel] = lam[:, k:]
+        return CVStates(None, None, lam[:, :k], lam_v, np.zeros_like(lam_v))
+
+    def _store_cv(self, mu: np.ndarray, gamma: np.ndarray, states: CVStates) -> None:
+        """Set the targets' states; ``mu`` and ``gamma`` become read-only so that the cached
+        split form cannot go stale (assign new arrays to change them)."""
+        mu.flags.writeable = False
+        gamma.flags.writeable = False
+        self.mu, self.gamma = mu, gamma
+        self._cv_cache = (mu, gamma, states)
+
+    def _step_cv(
+        self, observations: Sequence[Any], states: CVStates, lam: CVStates,
+        control: np.ndarray | None,
+    ) -> FrameInference:
+        """:meth:`step` for constant-velocity states, in the closed forms of ``predict_cv`` and
+        ``e_s_step_cv``; ``lam`` holds Λ in the covariance fields."""
+        n_vel, k, dt = self._cv
+        n = self.n_targets
+        if control is not None:  # the control term c_tn of eq. 3.34 joins Λ in the prediction
+            control = np.asarray(control, dtype=float).reshape(n, self.dim)
+            c_v = np.zeros((n, k))
+            c_v[:, :n_vel] = control[:, k:]
+            lam = lam._replace(mu_p=control[:, :k], mu_v=c_v)
+        pred = predict_cv(states, lam, dt)  # D μ + c, D Γ Dᵀ + Λ: eq. 2.21
+        post = pred  # E-Z initialisation, thesis §4.6.1
+        log_priors = [np.full(n + 1, -math.log(n + 1))] * len(self.models)  # η = 1/(N+1)
+        resps: list[np.ndarray] = []
+        mass: list[np.ndarray] = []
+        last = self.n_iter - 1
+        for it in range(self.n_iter):
+            marginal = self.marginal_init and it == 0
+            resps = [  # E-Z step, eq. 2.25 (eq. 2.8 on the prediction)
+                model.responsibilities_diagonal(obs, post.mu_p, post.var_p, lp, marginal,
+                                                self.exclusive)
+                for model, obs, lp in zip(self.models, observations, log_priors, strict=True)
+            ]
+            info, vec = self.models[0].information_diagonal(observations[0], resps[0])
+            for model, obs, resp in zip(self.models[1:], observations[1:], resps[1:],
+                                        strict=True):
+                j, h = model.information_diagonal(obs, resp)
+                info, vec = info + j, vec + h  # Σ over models of J_n and h_n, eq. 4.26
+            # E-S step, eqs. 2.23–2.24 (before the last iteration, only what E-Z reads)
+            post = e_s_step_cv(pred, info, vec, observed_only=it < last)
+            mass = [m.assigned_mass(r) for m, r in zip(self.models, resps, strict=True)]
+            if self.update_priors and it < last:  # M step, eq. 3.29 (unused after the last)
+                log_priors = [m_step_priors(a) for a in mass]
+        mu, gamma = cv_join(post, n_vel)
+        inference = self._finish(observations, mu, gamma, resps, mass)
+        self._store_cv(mu, gamma, post)
+        return inference
+
+    def _finish(
+        self, observations: Sequence[Any], mu: np.ndarray, gamma: np.ndarray,
+        resps: list[np.ndarray], mass: list[np.ndarray],
+    ) -> FrameInference:
+        """Store the frame's posterior and let the models update their per-target parameters."""
         self.mu, self.gamma = mu, gamma
         for model, obs, resp in zip(self.models, observations, resps, strict=True):
             model.update_targets(obs, resp)
-        mass = tuple(m.assigned_mass(r) for m, r in zip(self.models, resps, strict=True))
-        return FrameInference(mu.copy(), gamma.copy(), tuple(resps), mass)
+        return FrameInference(mu.copy(), gamma.copy(), tuple(resps), tuple(mass))
+
+
+def _constant_velocity(
+    transition: np.ndarray, models: Sequence[ObservationModel], dynamics_mstep: bool,
+) -> tuple[int, int, float] | None:
+    """``(n_vel, k, dt)`` when ``transition`` is ``constant_velocity_transition(k, n_vel, dt)``
+    and every model observes the ``k`` leading components with diagonal covariances (the
+    pattern :func:`~avtrack.tracking.vem.e_s_step_cv` needs); None otherwise. The M step of
+    Λ (eq. 2.27) gives full matrices, so it always takes the general path."""
+    if dynamics_mstep or not all(isinstance(m, DiagonalObservationModel) for m in models):
+        return None
+    k = models[0].observed_dim
+    d = transition.shape[0]
+    if any(m.observed_dim != k for m in models) or not 0 < k <= d or d - k > k:
+        return None
+    n_vel = d - k
+    dt = float(transition[0, k]) if n_vel else 1.0
+    expected = np.eye(d)
+    expected[np.arange(n_vel), k + np.arange(n_vel)] = dt
+    return (n_vel, k, dt) if np.array_equal(transition, expected) and dt > 0 else None

@@ -24,7 +24,8 @@ from avtrack.io.mot import MOTData
 from avtrack.models.appearance import APPEARANCE_MODELS, AppearanceLikelihood
 from avtrack.models.dynamics import (
     box_dynamics_covariance,
-    cap_box_covariance,
+    box_dynamics_variance,
+    cap_box_scale,
     constant_velocity_transition,
 )
 from avtrack.models.visual import (
@@ -166,15 +167,19 @@ class OVBTracker:
         c = self.config
         return box_dynamics_covariance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
 
+    def _dyn_var(self, mu: np.ndarray) -> np.ndarray:
+        c = self.config
+        return box_dynamics_variance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
+
     def _velocity_var(self, z: np.ndarray) -> np.ndarray:
         return (self.config.birth_velocity_std * np.maximum(z[:, 2:4], 1.0)) ** 2
 
     def _observations(self, boxes, scores, appearance) -> BoxObservations:
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
         m = boxes.shape[0]
-        if not np.all(np.isfinite(boxes)):
+        if not np.isfinite(boxes).all():
             raise ValueError("boxes must be finite")
-        if m and np.any(boxes[:, 2:] <= 0):
+        if m and not (boxes[:, 2:] > 0).all():
             raise ValueError("box width and height must be > 0")
         keep = np.ones(m, dtype=bool)
         if scores is not None:
@@ -182,9 +187,15 @@ class OVBTracker:
             if scores.shape[0] != m:
                 raise ValueError(f"got {scores.shape[0]} scores for {m} boxes")
             keep = scores >= self.config.min_score
+        kept = boxes if np.count_nonzero(keep) == m else boxes[keep]
         app = None
         if appearance is not None:
-            app = np.asarray(appearance, dtype=float).reshape(m, -1)
+            app = np.asarray(appearance, dtype=float)
+            if m == 0:  # an empty frame: keep the descriptor length known so far
+                refs = self.model.references
+                app = np.zeros((0, app.shape[-1] if app.ndim == 2 else
+                                (0 if refs is None else refs.shape[1])))
+            app = app.reshape(m, -1)
             if not np.all(np.isfinite(app)):
                 raise ValueError("appearance descriptors must be finite")
             app = self._appearance.normalize(app[keep])
@@ -193,9 +204,27 @@ class OVBTracker:
             self._has_appearance = has
         elif self._has_appearance != has:
             raise ValueError("appearance descriptors must be given for every frame or none")
-        z = ltwh_to_xywh(boxes[keep])
+        z = ltwh_to_xywh(kept)
         var = box_observation_variance(z, self.config.obs_std_pos, self.config.obs_std_size)
         return BoxObservations(z, var, app)
+
+    def _frame_observations(self, dets: MOTData, appearance: np.ndarray | None,
+                            n_frames: int | None) -> list[BoxObservations]:
+        """What :meth:`_observations` gives for each frame ``1..n_frames`` of ``dets``,
+        computed for all rows at once (``appearance``: one row per detection, or None)."""
+        slices = dets.frame_slices(n_frames)
+        if not slices:
+            return []
+        rows = slice(slices[0].start, slices[-1].stop)
+        first = self._observations(dets.boxes[rows], dets.scores[rows],
+                                   None if appearance is None else appearance[rows])
+        # row index in ``first`` of each frame's start: detections below min_score are dropped
+        kept = np.zeros(rows.stop - rows.start + 1, dtype=np.int64)
+        np.cumsum(dets.scores[rows] >= self.config.min_score, out=kept[1:])
+        starts = kept[[sl.start - rows.start for sl in slices] + [rows.stop - rows.start]]
+        app = first.appearance
+        return [BoxObservations(first.z[a:b], first.var[a:b], None if app is None else app[a:b])
+                for a, b in zip(starts[:-1].tolist(), starts[1:].tolist(), strict=True)]
 
     def step(self, boxes: np.ndarray, scores: np.ndarray | None = None,
              appearance: np.ndarray | None = None) -> FrameTracks:
@@ -215,40 +244,49 @@ class OVBTracker:
         FrameTracks
             The visible targets after this frame.
         """
+        ids, centre_boxes, p_visible = self._step(self._observations(boxes, scores, appearance))
+        return FrameTracks(ids, xywh_to_ltwh(centre_boxes), p_visible)
+
+    def _step(self, obs: BoxObservations) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`step` on prepared observations; returns the visible targets' ids ``(K,)``,
+        boxes ``(K, 4)`` as (x, y, w, h) and visibility posteriors ``(K,)``."""
         cfg = self.config
         self.frame += 1
-        obs = self._observations(boxes, scores, appearance)
         eng = self.engine
         # --- VEM on the existing targets ---------------------------------------------------
         if eng.n_targets:
-            inf = eng.step([obs], self._dyn_cov(eng.mu))
-            eng.gamma = cap_box_covariance(eng.mu, eng.gamma, cfg.max_state_std)
+            inf = eng.step([obs], self._dyn_var(eng.mu))  # Λ is diagonal
+            # cap_box_covariance on the engine's states, when some std exceeds its cap
+            scale = cap_box_scale(eng.mu, np.diagonal(eng.gamma, axis1=1, axis2=2),
+                                  cfg.max_state_std)
+            if scale.ravel()[scale.argmin()] < 1.0:
+                eng.scale_covariances(scale)
             resp, mass = inf.responsibilities[0], inf.mass[0][1:]
-            unassigned = np.argmax(resp, axis=1) == 0
-        else:
-            mass = np.zeros(0)
-            unassigned = np.ones(len(obs), dtype=bool)
-        # --- visibility (eqs. 3.31–3.32) and death (§3.1.4) -------------------------------
-        if eng.n_targets:
-            self.mass_history = np.concatenate([mass[:, None], self.mass_history[:, :-1]], 1)
-            nu = self.mass_history.sum(axis=1)
+            unassigned = np.flatnonzero(resp.argmax(axis=1) == 0)
+            # --- visibility (eqs. 3.31–3.32) and death (§3.1.4) ---------------------------
+            if cfg.visibility_window == 1:
+                self.mass_history, nu = mass[:, None], mass
+            else:
+                self.mass_history = np.concatenate([mass[:, None], self.mass_history[:, :-1]],
+                                                   1)
+                nu = self.mass_history.sum(axis=1)
             self.p_visible = visibility_filter(self.p_visible, nu, cfg.visibility_stay,
                                                cfg.visibility_lambda)
-            visible = self.p_visible > 0.5
-            self.invisible_run = np.where(visible, 0, self.invisible_run + 1)
+            self.invisible_run = np.where(self.p_visible > 0.5, 0, self.invisible_run + 1)
             keep = self.invisible_run < cfg.death_frames
-            if not keep.all():
+            if np.count_nonzero(keep) < keep.shape[0]:
                 self._remove(keep)
+        else:
+            unassigned = np.arange(len(obs))
         # --- birth (eq. 3.30) ----------------------------------------------------------------
-        self._pool.append(obs.subset(np.flatnonzero(unassigned)))
+        self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
         # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far
         # (at least two), so that the people present from the first frame are not held back.
         if len(self._pool) == cfg.birth_frames + 1 or (
                 cfg.startup_birth and len(self._pool) == self.frame >= 2):
             self._birth()
         visible = self.p_visible > 0.5
-        return FrameTracks(eng.ids[visible].copy(), xywh_to_ltwh(eng.mu[visible, :BOX_DIM]),
-                           self.p_visible[visible].copy())
+        return eng.ids[visible], eng.mu[visible, :BOX_DIM], self.p_visible[visible]
 
     def _remove(self, keep: np.ndarray) -> None:
         self.engine.remove_targets(keep)
@@ -258,6 +296,8 @@ class OVBTracker:
 
     def _birth(self) -> None:
         cfg = self.config
+        if any(len(p) == 0 for p in self._pool):
+            return  # every sequence needs one detection per pool frame
         pools = [(p.z, p.var) for p in self._pool]
         cands = birth_candidates(pools, self.transition, self._dyn_cov, self._velocity_var,
                                  self.log_clutter, gate=cfg.birth_gate)
@@ -295,8 +335,8 @@ def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(K, 4), (N, 4)`` ltwh boxes -> ``(K, N)`` area(a ∩ b) / area(a)."""
     lt = np.maximum(a[:, None, :2], b[None, :, :2])
     rb = np.minimum(a[:, None, :2] + a[:, None, 2:], b[None, :, :2] + b[None, :, 2:])
-    inter = np.prod(np.clip(rb - lt, 0, None), axis=2)
-    return inter / np.prod(a[:, 2:], axis=1)[:, None]
+    wh = np.maximum(rb - lt, 0.0)  # intersection width and height, (K, N, 2)
+    return wh[:, :, 0] * wh[:, :, 1] / (a[:, 2] * a[:, 3])[:, None]
 
 
 def image_size_from_detections(dets: MOTData) -> tuple[int, int]:
@@ -337,15 +377,14 @@ def track_mot(
             raise ValueError(f"appearance must have one row per detection ({len(dets)}), got "
                              f"shape {appearance.shape}")
     tracker = OVBTracker(config, image_size or image_size_from_detections(dets))
-    frames, ids, boxes, conf = [], [], [], []
-    for f, sl in enumerate(dets.frame_slices(n_frames), start=1):
-        out = tracker.step(dets.boxes[sl], dets.scores[sl],
-                           None if appearance is None else appearance[sl])
-        frames.append(np.full(len(out.ids), f))
-        ids.append(out.ids)
-        boxes.append(out.boxes)
-        conf.append(out.p_visible)
-    if not frames:
+    ids, boxes, conf = [], [], []
+    for obs in tracker._frame_observations(dets, appearance, n_frames):
+        out = tracker._step(obs)
+        ids.append(out[0])
+        boxes.append(out[1])
+        conf.append(out[2])
+    if not ids:
         return MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
-    return MOTData(np.concatenate(frames), np.concatenate(ids), np.vstack(boxes),
-                   np.concatenate(conf))
+    counts = [len(i) for i in ids]
+    return MOTData(np.repeat(np.arange(1, len(ids) + 1), counts), np.concatenate(ids),
+                   xywh_to_ltwh(np.vstack(boxes)), np.concatenate(conf))

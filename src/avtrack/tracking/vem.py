@@ -11,8 +11,10 @@ linear-Gaussian :math:`p(s_{tn}|s_{t-1,n}) = \mathcal{N}(D s_{t-1,n}, \Lambda_{t
 
 from __future__ import annotations
 
+import functools
+from typing import NamedTuple
+
 import numpy as np
-from scipy.special import logsumexp
 
 #: Smallest prior probability kept for any class after the M-step (keeps log finite).
 PRIOR_FLOOR = 1e-6
@@ -73,8 +75,16 @@ def e_z_step(log_tau: np.ndarray, log_clutter: np.ndarray, log_prior: np.ndarray
     alpha : ndarray (M, N + 1)
         Rows sum to one; column 0 is clutter.
     """
-    log_post = np.concatenate([log_clutter[:, None], log_tau], axis=1) + log_prior
-    return np.exp(log_post - logsumexp(log_post, axis=1, keepdims=True))
+    m, n = log_tau.shape
+    log_post = np.empty((m, n + 1))
+    log_post[:, 0] = log_clutter
+    log_post[:, 1:] = log_tau
+    log_post += log_prior  # log τ_tmn η_mn
+    # shifted by the row maximum so that exp cannot overflow (in place: small arrays)
+    log_post -= log_post.max(axis=1, keepdims=True)
+    post = np.exp(log_post, out=log_post)
+    post /= post.sum(axis=1, keepdims=True)  # α_tmn = τη / Σ_i τ_tmi η_mi, eq. 2.25
+    return post
 
 
 def exclusive_projection(alpha: np.ndarray, n_iter: int = 50, tol: float = 1e-6) -> np.ndarray:
@@ -85,10 +95,10 @@ def exclusive_projection(alpha: np.ndarray, n_iter: int = 50, tol: float = 1e-6)
     (a person produces at most one detection per frame) the E-Z step becomes the I-projection
 
     .. math::
-        \min_q \mathrm{KL}(q\,\|\,lpha) \ 	ext{s.t.}\ \sum_{n=0}^{N} q_{mn} = 1,\quad
+        \min_q \mathrm{KL}(q\,\|\,\alpha) \ \text{s.t.}\ \sum_{n=0}^{N} q_{mn} = 1,\quad
         \sum_m q_{mn} \le 1 \ (n \ge 1),
 
-    whose solution is :math:`q_{mn} = lpha_{mn} r_m c_n` with :math:`c_0 = 1`, found by
+    whose solution is :math:`q_{mn} = \alpha_{mn} r_m c_n` with :math:`c_0 = 1`, found by
     alternating Bregman projections onto the two constraint sets (Sinkhorn scaling with a
     one-sided column constraint). Observations a saturated target cannot take flow back to the
     other targets and to clutter.
@@ -103,15 +113,25 @@ def exclusive_projection(alpha: np.ndarray, n_iter: int = 50, tol: float = 1e-6)
     ndarray (M, N + 1)
         Row-stochastic, target columns summing to at most ``1 + tol``.
     """
-    q = alpha
+    if alpha.shape[1] < 2 or n_iter < 1:
+        return alpha
+    bound = 1.0 + tol
+    s = alpha[:, 1:].sum(axis=0)  # column sums of q = α
+    if s[s.argmax()] <= bound:  # (argmax: much cheaper than max() on small arrays)
+        return alpha
+    # The iterates in scaling form, q_mn = α_mn r_m / t_n with t_0 = 1:
+    targets = alpha[:, 1:].T.copy()  # (N, M), for the column sums Σ_m α_mn r_m
+    t = np.ones(alpha.shape[1])
+    t_targets = t[1:]
     for _ in range(n_iter):
-        col = q[:, 1:].sum(axis=0)
-        if col.size == 0 or col.max() <= 1.0 + tol:
+        # project onto column sums <= 1: q_mn /= max(1, Σ_m q_mn), i.e. t_n = max(t_n, s_n)
+        np.maximum(t_targets, s, out=t_targets)
+        r = 1.0 / alpha.dot(1.0 / t)  # project onto rows summing to 1: r_m = 1 / Σ_n α_mn / t_n
+        s = targets.dot(r)  # s_n = Σ_m α_mn r_m = t_n Σ_m q_mn
+        col = s / t_targets  # Σ_m q_mn
+        if col[col.argmax()] <= bound:
             break
-        q = q.copy()
-        q[:, 1:] /= np.maximum(col, 1.0)  # project onto column sums <= 1
-        q /= q.sum(axis=1, keepdims=True)  # project onto rows summing to 1
-    return q
+    return alpha * r[:, None] / t  # q_mn = α_mn r_m / t_n
 
 
 def e_s_step(
@@ -151,6 +171,160 @@ def e_s_step(
     rhs = info_vector + np.einsum("nij,nj->ni", precision_pred, mu_pred)
     mu = np.einsum("nij,nj->ni", gamma, rhs)  # eq. 2.24
     return mu, gamma
+
+
+# --------------------------------------------------------------------------- constant velocity
+# Closed forms for constant-velocity states ``s = [p, v]`` (``p``: the ``k`` observed
+# components, ``v``: a velocity for the first ``n_vel`` of them) observed through ``P = [I_k 0]``
+# with diagonal observation covariances. Starting from diagonal covariances, the prediction
+# (eq. 2.21) couples ``p_i`` with ``v_i`` only and the E-S step (eq. 2.23) adds a diagonal
+# precision to ``p``, so Γ keeps the pattern of :func:`cv_pattern`: its diagonal plus the
+# ``n_vel`` covariances ``Γ[i, k + i]``. Held per component ``i < k`` as a :class:`CVStates`
+# (components without a velocity get one that is 0 with variance 0, which every update below
+# leaves at 0), the updates are elementwise on ``(N, k)`` arrays, with no ``d × d`` inverse.
+
+
+class CVStates(NamedTuple):
+    """``N`` constant-velocity Gaussian states, per observed component ``i < k``: ``(N, k)``
+    arrays of the mean ``μ_p`` and ``μ_v`` of ``p_i`` and ``v_i``, their variances ``Γ_pp`` and
+    ``Γ_vv`` and their covariance ``Γ_pv`` (``v_i``, ``Γ_vv``, ``Γ_pv`` are 0 for ``i ≥ n_vel``).
+    """
+
+    mu_p: np.ndarray
+    mu_v: np.ndarray
+    var_p: np.ndarray
+    var_v: np.ndarray
+    cov: np.ndarray
+
+
+def cv_pattern(dim: int, n_vel: int) -> np.ndarray:
+    """``(dim, dim)`` bool mask: True where a constant-velocity covariance may be nonzero."""
+    k = dim - n_vel
+    mask = np.eye(dim, dtype=bool)
+    mask[np.arange(n_vel), k + np.arange(n_vel)] = True
+    mask[k + np.arange(n_vel), np.arange(n_vel)] = True
+    return mask
+
+
+def cv_split(mu: np.ndarray, gamma: np.ndarray, n_vel: int) -> CVStates:
+    """``mu (N, d)``, ``gamma (N, d, d)`` with the :func:`cv_pattern` -> :class:`CVStates`."""
+    n, d = mu.shape
+    k = d - n_vel
+    out = np.zeros((5, n, k))
+    diag = np.diagonal(gamma, axis1=1, axis2=2)
+    out[0] = mu[:, :k]
+    out[1, :, :n_vel] = mu[:, k:]
+    out[2] = diag[:, :k]
+    out[3, :, :n_vel] = diag[:, k:]
+    out[4, :, :n_vel] = gamma[:, np.arange(n_vel), k + np.arange(n_vel)]  # Γ[i, k + i]
+    return CVStates(*out)
+
+
+def cv_join(states: CVStates, n_vel: int) -> tuple[np.ndarray, np.ndarray]:
+    """Inverse of :func:`cv_split`: :class:`CVStates` -> ``mu (N, d)``, ``gamma (N, d, d)``."""
+    n, k = states.mu_p.shape
+    d = k + n_vel
+    mu = np.concatenate([states.mu_p, states.mu_v[:, :n_vel]], axis=1)
+    gamma = np.zeros((n, d * d))
+    # diagonal, then Γ[i, k + i] and Γ[k + i, i]
+    gamma[:, _cv_flat_index(k, n_vel)] = np.concatenate(
+        [states.var_p, states.var_v[:, :n_vel], states.cov[:, :n_vel], states.cov[:, :n_vel]],
+        axis=1)
+    return mu, gamma.reshape(n, d, d)
+
+
+@functools.cache
+def _cv_flat_index(k: int, n_vel: int) -> np.ndarray:
+    """Flat indices into a ``d × d`` matrix of its diagonal, ``[i, k + i]`` and ``[k + i, i]``."""
+    d = k + n_vel
+    p, v = np.arange(n_vel), k + np.arange(n_vel)
+    return np.concatenate([np.arange(d) * (d + 1), p * d + v, v * d + p])
+
+
+def predict_cv(states: CVStates, lam: CVStates, dt: float) -> CVStates:
+    r""":func:`predict` (thesis eq. 2.21) of constant-velocity states.
+
+    :math:`p_i' = p_i + \Delta t\, v_i`, so :math:`D\Gamma D^\top + \Lambda` has
+    :math:`\Gamma_{pp} + 2\Delta t\,\Gamma_{pv} + \Delta t^2\Gamma_{vv} + \Lambda_{pp}`,
+    :math:`\Gamma_{pv} + \Delta t\,\Gamma_{vv} + \Lambda_{pv}` and
+    :math:`\Gamma_{vv} + \Lambda_{vv}`.
+
+    Parameters
+    ----------
+    states : CVStates
+        :math:`q(s_{t-1,n})`.
+    lam : CVStates
+        :math:`\Lambda_{tn}` in the covariance fields; the control term :math:`c_{tn}` of
+        eq. 3.34 in the mean fields, or None there for no control.
+    dt : float
+        :math:`\Delta t` of :func:`~avtrack.models.dynamics.constant_velocity_transition`.
+
+    Returns
+    -------
+    CVStates
+    """
+    mu_p, mu_v, var_p, var_v, cov = states
+    mu_p = mu_p + dt * mu_v  # D μ: p + Δt v (v unchanged)
+    if lam.mu_p is not None:  # + c
+        mu_p += lam.mu_p
+        mu_v = mu_v + lam.mu_v
+    return CVStates(
+        mu_p,
+        mu_v,
+        var_p + (2 * dt) * cov + (dt * dt) * var_v + lam.var_p,  # Γ_pp + 2Δt Γ_pv + Δt² Γ_vv + Λ
+        var_v + lam.var_v,  # Γ_vv + Λ_vv
+        cov + dt * var_v + lam.cov,  # Γ_pv + Δt Γ_vv + Λ_pv
+    )
+
+
+def e_s_step_cv(
+    pred: CVStates, info_diag: np.ndarray, info_vector: np.ndarray, observed_only: bool = False,
+) -> CVStates:
+    r""":func:`e_s_step` (thesis eqs. 2.23–2.24) of constant-velocity states.
+
+    The observation precision :math:`J = \mathrm{diag}(j)` acts on ``p`` only, so the posterior
+    splits into one ``(p_i, v_i)`` block per component, each a rank-one update of the
+    prediction. By Sherman–Morrison, with :math:`a, c, b` the predicted
+    :math:`\Gamma_{pp}, \Gamma_{pv}, \Gamma_{vv}` and :math:`f = 1/(1 + j a)`:
+
+    .. math::
+        \Gamma_{pp} = f a,\quad \Gamma_{pv} = f c,\quad \Gamma_{vv} = b - j c\,\Gamma_{pv},
+        \quad \mu_p = f(\bar\mu_p + a h),\quad
+        \mu_v = \bar\mu_v + \Gamma_{pv}(h - j\bar\mu_p)
+
+    which are eq. 2.23 :math:`\Gamma = (J + \bar\Gamma^{-1})^{-1}` and eq. 2.24
+    :math:`\mu = \Gamma(h + \bar\Gamma^{-1}\bar\mu)` without any inverse.
+
+    Parameters
+    ----------
+    pred : CVStates
+        Predicted states :math:`\bar\mu, \bar\Gamma`.
+    info_diag : ndarray (N, k)
+        Diagonal :math:`j` of the summed precisions :math:`\sum_m \alpha_{tmn}\Phi_{tm}^{-1}`.
+    info_vector : ndarray (N, k)
+        :math:`h = \sum_m \alpha_{tmn}\Phi_{tm}^{-1} o_{tm}`.
+    observed_only : bool
+        Update only :math:`\mu_p, \Gamma_{pp}` (all that an E-Z step reads) and leave the
+        velocity fields at the prediction.
+
+    Returns
+    -------
+    CVStates
+    """
+    mu_p, mu_v, a, b, c = pred
+    f = 1.0 / (1.0 + info_diag * a)  # f = 1 / (1 + j Γ̄_pp)
+    post_mu_p = f * (mu_p + a * info_vector)  # μ_p = f (μ̄_p + Γ̄_pp h), eq. 2.24
+    post_var_p = f * a  # Γ_pp = f Γ̄_pp, eq. 2.23
+    if observed_only:
+        return CVStates(post_mu_p, mu_v, post_var_p, b, c)
+    cov = f * c  # Γ_pv = f Γ̄_pv, eq. 2.23
+    return CVStates(
+        post_mu_p,
+        mu_v + cov * (info_vector - info_diag * mu_p),  # μ_v = μ̄_v + Γ_pv (h - j μ̄_p), eq. 2.24
+        post_var_p,
+        b - info_diag * c * cov,  # Γ_vv = Γ̄_vv - j Γ̄_pv Γ_pv, eq. 2.23
+        cov,
+    )
 
 
 def m_step_priors(mass: np.ndarray) -> np.ndarray:

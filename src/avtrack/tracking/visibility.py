@@ -52,7 +52,8 @@ def visibility_filter(p_visible: np.ndarray, nu: np.ndarray, stay: float, lam: f
         raise ValueError(f"stay must be in (0, 1), got {stay}")
     if not lam > 0:
         raise ValueError(f"lam must be > 0, got {lam}")
-    prior1 = stay * p_visible + (1 - stay) * (1 - p_visible)  # Σ_v p(v_t|v_{t-1}) p(v_{t-1})
+    # Σ_v p(v_t|v_{t-1}) p(v_{t-1}) = π_v p + (1 - π_v)(1 - p)
+    prior1 = (1 - stay) + (2 * stay - 1) * p_visible
     l0, l1 = visibility_likelihood(nu, lam)
     num1 = l1 * prior1
     return num1 / (num1 + l0 * (1 - prior1))
