@@ -205,10 +205,6 @@ def test_select_births_never_reuses_an_observation(data, threshold):
             assert {(f, int(i)) for f, i in enumerate(c.indices)} & used
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: select_births assumes its input is sorted by decreasing llr (it stops at the first "
-    "candidate with llr <= threshold) but neither checks nor sorts; an unsorted list silently "
-    "loses candidates above the threshold."))
 def test_select_births_does_not_depend_on_input_order():
     born = select_births([cand([0, 0], -1.0), cand([1, 1], 5.0)], 0.0)
     assert [c.llr for c in born] == [5.0]

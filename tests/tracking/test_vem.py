@@ -5,7 +5,6 @@ invariants with Hypothesis (covariances stay SPD, responsibilities are probabili
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -313,12 +312,6 @@ def test_exclusive_projection_invariants(logits, clutter_logit):
     assert np.all(q[:, 1:].sum(axis=0) <= 1 + 1e-6)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: exclusive_projection converges too slowly when the clutter responsibility is tiny "
-    "(c_{k+1} ≈ 2 c_k): with clutter 1e-12, n_iter=50 ends with a target column of ~1.0004, "
-    "breaking the documented bound 1 + tol. It shows in VEMEngine(exclusive=True) too: two "
-    "duplicate 8x16 detections of one target with a 1920x1080 clutter density end with a "
-    "target column of 1.0000039."))
 def test_exclusive_projection_bound_holds_for_tiny_clutter():
     c = 1e-12
     q = exclusive_projection(np.array([[c, 1 - c], [c, 1 - c]]))

@@ -196,7 +196,7 @@ class BoxObservationModel(DiagonalObservationModel):
         return self._with_appearance(obs, log_tau), self._log_clutter(len(obs))
 
     def _log_clutter(self, m: int) -> np.ndarray:
-        """``(m,)`` read-only array of :math:`\log u(o)`, shared between calls."""
+        r"""``(m,)`` read-only array of :math:`\log u(o)`, shared between calls."""
         out = self._log_clutter_cache.get(m)
         if out is None:
             out = np.full(m, self.log_clutter_density)

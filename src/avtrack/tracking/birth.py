@@ -151,7 +151,7 @@ def select_births(candidates: Sequence[BirthCandidate], threshold: float) -> lis
     """Greedy choice of non-overlapping sequences with ``llr > threshold``, best first."""
     used: set[tuple[int, int]] = set()
     chosen = []
-    for cand in candidates:
+    for cand in sorted(candidates, key=lambda c: -c.llr):
         if cand.llr <= threshold:
             break
         keys = {(f, int(i)) for f, i in enumerate(cand.indices)}

@@ -30,7 +30,6 @@ from avtrack.models.dynamics import (
 )
 from avtrack.models.visual import (
     BOX_DIM,
-    STATE_DIM,
     BoxObservationModel,
     BoxObservations,
     box_observation_variance,
@@ -68,8 +67,8 @@ class OVBTConfig:
     startup_birth: bool = True  #: before frame B + 1, births from all frames so far (≥ 2)
     birth_max_overlap: float = 0.5  #: reject a birth whose box lies this much inside a target's
     visibility_stay: float = 0.9  #: π_v of the visibility HMM
-    visibility_lambda: float = 2.0  #: λ of eq. 3.32
-    visibility_window: int = 1  #: frames summed into the visibility evidence ν
+    visibility_lambda: float = 1.0  #: λ of eq. 3.32
+    visibility_window: int = 2  #: frames summed into the visibility evidence ν
     death_frames: int = 10  #: delete a target invisible this many frames (thesis: 10)
     min_score: float = 0.0  #: drop detections with a lower confidence
     appearance: str = "bhattacharyya"  #: "bhattacharyya" (histograms) or "cosine" (embeddings)
@@ -78,8 +77,8 @@ class OVBTConfig:
 
     def __post_init__(self) -> None:
         positive = ("obs_std_pos", "obs_std_size", "dyn_std_pos", "dyn_std_size",
-                    "dyn_std_vel", "max_state_std", "birth_max_overlap", "birth_velocity_std", "birth_gate", "visibility_lambda",
-                    "appearance_lambda")
+                    "dyn_std_vel", "max_state_std", "birth_max_overlap", "birth_velocity_std",
+                    "birth_gate", "visibility_lambda", "appearance_lambda")
         for name in positive:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):

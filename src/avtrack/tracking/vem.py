@@ -19,6 +19,9 @@ import numpy as np
 #: Smallest prior probability kept for any class after the M-step (keeps log finite).
 PRIOR_FLOOR = 1e-6
 
+#: Smallest clutter responsibility used by :func:`exclusive_projection`.
+CLUTTER_FLOOR = 1e-9
+
 
 def symmetrize(a: np.ndarray) -> np.ndarray:
     """``(a + aᵀ) / 2`` over the last two axes; ``a`` is ``(..., d, d)``."""
@@ -87,7 +90,7 @@ def e_z_step(log_tau: np.ndarray, log_clutter: np.ndarray, log_prior: np.ndarray
     return post
 
 
-def exclusive_projection(alpha: np.ndarray, n_iter: int = 50, tol: float = 1e-6) -> np.ndarray:
+def exclusive_projection(alpha: np.ndarray, n_iter: int = 1000, tol: float = 1e-6) -> np.ndarray:
     r"""Project responsibilities onto "each target explains at most one observation".
 
     The independent assignments of eq. 2.25 let one target absorb several observations (a
@@ -119,6 +122,10 @@ def exclusive_projection(alpha: np.ndarray, n_iter: int = 50, tol: float = 1e-6)
     s = alpha[:, 1:].sum(axis=0)  # column sums of q = α
     if s[s.argmax()] <= bound:  # (argmax: much cheaper than max() on small arrays)
         return alpha
+    # Clutter must be able to take the excess: with α_m0 = 0 the constraint set can be empty,
+    # and with a tiny α_m0 each iteration only about doubles it, so floor it (the early exits
+    # keep the usual case at a few iterations).
+    alpha = np.concatenate([np.maximum(alpha[:, :1], CLUTTER_FLOOR), alpha[:, 1:]], axis=1)
     # The iterates in scaling form, q_mn = α_mn r_m / t_n with t_0 = 1:
     targets = alpha[:, 1:].T.copy()  # (N, M), for the column sums Σ_m α_mn r_m
     t = np.ones(alpha.shape[1])
