@@ -111,6 +111,13 @@ def exclusive_projection(alpha: np.ndarray, n_iter: int = 1000, tol: float = 1e-
     alpha : ndarray (M, N + 1)
         Row-stochastic responsibilities, clutter in column 0.
 
+    The iterations run in scaling form, :math:`q_{mn} = \alpha_{mn} r_m / t_n` with
+    :math:`t_0 = 1`: the column projection is :math:`t_n \leftarrow \max(t_n, s_n)` with
+    :math:`s_n = \sum_m \alpha_{mn} r_m`, the row projection
+    :math:`r_m = 1 / \sum_n \alpha_{mn} / t_n`, and they stop at the first iterate whose target
+    columns sum to at most ``1 + tol`` or after ``n_iter`` projections. Only the few columns
+    ever over their bound are iterated (see :func:`_sinkhorn_scales`).
+
     Returns
     -------
     ndarray (M, N + 1)
@@ -126,19 +133,75 @@ def exclusive_projection(alpha: np.ndarray, n_iter: int = 1000, tol: float = 1e-
     # and with a tiny α_m0 each iteration only about doubles it, so floor it (the early exits
     # keep the usual case at a few iterations).
     alpha = np.concatenate([np.maximum(alpha[:, :1], CLUTTER_FLOOR), alpha[:, 1:]], axis=1)
-    # The iterates in scaling form, q_mn = α_mn r_m / t_n with t_0 = 1:
-    targets = alpha[:, 1:].T.copy()  # (N, M), for the column sums Σ_m α_mn r_m
-    t = np.ones(alpha.shape[1])
-    t_targets = t[1:]
-    for _ in range(n_iter):
-        # project onto column sums <= 1: q_mn /= max(1, Σ_m q_mn), i.e. t_n = max(t_n, s_n)
-        np.maximum(t_targets, s, out=t_targets)
-        r = 1.0 / alpha.dot(1.0 / t)  # project onto rows summing to 1: r_m = 1 / Σ_n α_mn / t_n
-        s = targets.dot(r)  # s_n = Σ_m α_mn r_m = t_n Σ_m q_mn
-        col = s / t_targets  # Σ_m q_mn
-        if col[col.argmax()] <= bound:
-            break
+    t = _sinkhorn_scales(alpha, np.concatenate([[0.0], s]), n_iter, bound)
+    r = 1.0 / alpha.dot(1.0 / t)  # r_m = 1 / Σ_n α_mn / t_n
     return alpha * r[:, None] / t  # q_mn = α_mn r_m / t_n
+
+
+def _sinkhorn_scales(alpha: np.ndarray, s: np.ndarray, n_iter: int, bound: float) -> np.ndarray:
+    r"""Column scales :math:`t` ``(N + 1,)`` of the last iterate of :func:`exclusive_projection`.
+
+    ``s`` ``(N + 1,)`` holds the column sums of ``alpha`` (0 for the clutter column, which is
+    never scaled). A column keeps :math:`t_n = 1` until its sum exceeds 1, and usually one or
+    two targets ever do; with :math:`A` the columns scaled so far and
+    :math:`b_m = \sum_{n \notin A}\alpha_{mn}`, the iterations only need
+    :math:`r_m = 1 / (b_m + \sum_{a \in A}\alpha_{ma}/t_a)` and :math:`s_a`. Every
+    :math:`r_m`, hence every other column sum, grows with the :math:`t_a`: so when the other
+    columns sum to at most 1 at the last iterate they did at every earlier one and were indeed
+    not scaled; otherwise the iterations go back to the first iterate where one went over,
+    and go on with that column in :math:`A`. The iterates are those of the plain alternating
+    projections.
+    """
+    t = np.ones(alpha.shape[1])
+    k = 0  # projections done; ``s`` are the column sums Σ_m α_mn r_m of iterate k
+    while k < n_iter:
+        scaled = (t > 1.0) | (s > t)
+        active = np.flatnonzero(scaled)
+        others = np.flatnonzero(~scaled)[1:]  # target columns still at t_n = 1
+        alpha_a = alpha[:, active]
+        b = alpha.dot((~scaled).astype(float))  # Σ_{n∉A} α_mn
+        t_a, s_a = t[active], s[active]
+        history, converged = [], False
+        if active.shape[0] == 1:  # one column: a scalar recursion on t_a
+            col = alpha_a[:, 0]
+            takes = col > 0
+            w = b[takes] / col[takes]  # α_ma r_m = 1 / (b_m/α_ma + 1/t_a)
+            ones = np.ones(w.shape[0])
+            t_1, s_1 = float(t_a[0]), float(s_a[0])
+            while k < n_iter:
+                t_1 = max(t_1, s_1)  # project onto column sums <= 1
+                k += 1
+                s_1 = float((1.0 / (w + 1.0 / t_1)).dot(ones))  # project rows; s_a = Σ α r
+                history.append(t_1)
+                if s_1 <= bound * t_1:  # Σ_m q_ma = s_a / t_a
+                    converged = True
+                    break
+            history_t = np.array(history)[:, None]
+        else:
+            alpha_at = alpha_a.T.copy()
+            while k < n_iter:
+                t_a = np.maximum(t_a, s_a)  # project onto column sums <= 1
+                k += 1
+                s_a = alpha_at.dot(1.0 / (b + alpha_a.dot(1.0 / t_a)))  # project rows; s_a
+                history.append(t_a)
+                col = s_a / t_a
+                if col[col.argmax()] <= bound:
+                    converged = True
+                    break
+            history_t = np.array(history)
+        # the other columns' sums at every iterate of this run: r (K, M), then (K, |others|)
+        r = 1.0 / (b + (1.0 / history_t).dot(alpha_a.T))
+        s_others = r.dot(alpha[:, others])
+        over = np.flatnonzero((s_others > 1.0).any(axis=1))
+        last = len(history) - 1 if over.shape[0] == 0 else int(over[0])
+        k -= len(history) - 1 - last  # back to the first iterate where another column is over
+        t[active] = history_t[last]
+        s = alpha.T.dot(r[last])  # column sums of that iterate
+        s[0] = 0.0
+        col = s / t
+        if (converged and over.shape[0] == 0) or col[col.argmax()] <= bound:
+            break
+    return t
 
 
 def e_s_step(
