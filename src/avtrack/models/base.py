@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from avtrack.tracking.vem import e_z_step, exclusive_projection
+from avtrack.tracking.vem import e_z_step, exclusive_projection, ones
 
 
 class ObservationModel(ABC):
@@ -90,7 +90,7 @@ class ObservationModel(ABC):
 
     def assigned_mass(self, resp: np.ndarray) -> np.ndarray:
         """``(N + 1,)`` summed responsibilities per class, clutter first."""
-        return resp.sum(axis=0)
+        return ones(resp.shape[0]).dot(resp)
 
     # Per-target parameter hooks (no-ops by default).
     def add_targets(self, count: int, init: Any = None) -> None:  # noqa: B027

@@ -103,7 +103,6 @@ def birth_candidates(
     gamma[:, diag, diag] = np.concatenate([var0, velocity_var(z0)], axis=1)
     score = np.zeros(c)
     chains = np.arange(c)[:, None]
-    off_diagonal = ~np.eye(k, dtype=bool)
     for z, var in pools[1:]:
         m = z.shape[0]
         if m == 0 or mu.shape[0] == 0:
@@ -112,7 +111,9 @@ def birth_candidates(
         gamma = symmetrize(transition @ gamma @ transition.T + dynamics_cov(mu))
         mu = mu @ transition.T
         r = z[None, :, :] - mu[:, None, :k]  # innovation o_m - P μ, (C, M, k)
-        diagonal = not gamma[:, :k, :k][:, off_diagonal].any()
+        block = gamma[:, :k, :k]  # P Γ Pᵀ: diagonal when all its nonzeros are on the diagonal
+        diagonal = np.count_nonzero(block) == np.count_nonzero(
+            np.diagonal(block, axis1=1, axis2=2))
         if diagonal:  # P Γ Pᵀ diagonal (constant-velocity boxes): S is diagonal too
             s = gamma[:, diag[:k], diag[:k]][:, None, :] + var[None]  # (C, M, k)
             maha = (r * r / s).sum(axis=2)  # rᵀ S⁻¹ r

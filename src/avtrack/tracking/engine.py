@@ -284,25 +284,25 @@ class VEMEngine:
             lam = lam._replace(mu_p=control[:, :k], mu_v=c_v)
         pred = predict_cv(states, lam, dt)  # D μ + c, D Γ Dᵀ + Λ: eq. 2.21
         post = pred  # E-Z initialisation, thesis §4.6.1
-        log_priors = [np.full(n + 1, -math.log(n + 1))] * len(self.models)  # η = 1/(N+1)
+        pairs = list(zip(self.models, observations, strict=True))
+        log_priors = [np.full(n + 1, -math.log(n + 1))] * len(pairs)  # η = 1/(N+1)
         resps: list[np.ndarray] = []
         mass: list[np.ndarray] = []
-        last = self.n_iter - 1
+        last, exclusive = self.n_iter - 1, self.exclusive
         for it in range(self.n_iter):
             marginal = self.marginal_init and it == 0
             resps = [  # E-Z step, eq. 2.25 (eq. 2.8 on the prediction)
                 model.responsibilities_diagonal(obs, post.mu_p, post.var_p, lp, marginal,
-                                                self.exclusive)
-                for model, obs, lp in zip(self.models, observations, log_priors, strict=True)
+                                                exclusive)
+                for (model, obs), lp in zip(pairs, log_priors, strict=True)
             ]
-            info, vec = self.models[0].information_diagonal(observations[0], resps[0])
-            for model, obs, resp in zip(self.models[1:], observations[1:], resps[1:],
-                                        strict=True):
+            info, vec = pairs[0][0].information_diagonal(pairs[0][1], resps[0])
+            for (model, obs), resp in zip(pairs[1:], resps[1:], strict=True):
                 j, h = model.information_diagonal(obs, resp)
                 info, vec = info + j, vec + h  # Σ over models of J_n and h_n, eq. 4.26
             # E-S step, eqs. 2.23–2.24 (before the last iteration, only what E-Z reads)
             post = e_s_step_cv(pred, info, vec, observed_only=it < last)
-            mass = [m.assigned_mass(r) for m, r in zip(self.models, resps, strict=True)]
+            mass = [model.assigned_mass(r) for (model, _), r in zip(pairs, resps, strict=True)]
             if self.update_priors and it < last:  # M step, eq. 3.29 (unused after the last)
                 log_priors = [m_step_priors(a) for a in mass]
         mu, gamma = cv_join(post, n_vel)

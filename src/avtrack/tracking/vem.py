@@ -23,6 +23,15 @@ PRIOR_FLOOR = 1e-6
 CLUTTER_FLOOR = 1e-9
 
 
+@functools.cache
+def ones(n: int) -> np.ndarray:
+    """A read-only ``(n,)`` vector of ones: ``a.dot(ones(n))`` sums the rows of a small array
+    several times faster than ``a.sum(axis=1)``, whose call overhead dominates at these sizes."""
+    out = np.ones(n)
+    out.flags.writeable = False
+    return out
+
+
 def symmetrize(a: np.ndarray) -> np.ndarray:
     """``(a + aᵀ) / 2`` over the last two axes; ``a`` is ``(..., d, d)``."""
     return 0.5 * (a + np.swapaxes(a, -1, -2))
@@ -86,7 +95,7 @@ def e_z_step(log_tau: np.ndarray, log_clutter: np.ndarray, log_prior: np.ndarray
     # shifted by the row maximum so that exp cannot overflow (in place: small arrays)
     log_post -= log_post.max(axis=1, keepdims=True)
     post = np.exp(log_post, out=log_post)
-    post /= post.sum(axis=1, keepdims=True)  # α_tmn = τη / Σ_i τ_tmi η_mi, eq. 2.25
+    post /= post.dot(ones(n + 1))[:, None]  # α_tmn = τη / Σ_i τ_tmi η_mi, eq. 2.25
     return post
 
 
@@ -126,7 +135,7 @@ def exclusive_projection(alpha: np.ndarray, n_iter: int = 1000, tol: float = 1e-
     if alpha.shape[1] < 2 or n_iter < 1:
         return alpha
     bound = 1.0 + tol
-    s = alpha[:, 1:].sum(axis=0)  # column sums of q = α
+    s = ones(alpha.shape[0]).dot(alpha[:, 1:])  # column sums of q = α
     if s[s.argmax()] <= bound:  # (argmax: much cheaper than max() on small arrays)
         return alpha
     # Clutter must be able to take the excess: with α_m0 = 0 the constraint set can be empty,
@@ -147,61 +156,91 @@ def _sinkhorn_scales(alpha: np.ndarray, s: np.ndarray, n_iter: int, bound: float
     :math:`b_m = \sum_{n \notin A}\alpha_{mn}`, the iterations only need
     :math:`r_m = 1 / (b_m + \sum_{a \in A}\alpha_{ma}/t_a)` and :math:`s_a`. Every
     :math:`r_m`, hence every other column sum, grows with the :math:`t_a`: so when the other
-    columns sum to at most 1 at the last iterate they did at every earlier one and were indeed
-    not scaled; otherwise the iterations go back to the first iterate where one went over,
-    and go on with that column in :math:`A`. The iterates are those of the plain alternating
-    projections.
+    columns sum to at most 1 at the last iterate of a run of iterations they did at every
+    earlier one and were indeed not scaled; otherwise the iterations go back to the first
+    iterate where one went over, and go on with that column in :math:`A`. The iterates are
+    those of the plain alternating projections.
     """
     t = np.ones(alpha.shape[1])
     k = 0  # projections done; ``s`` are the column sums Σ_m α_mn r_m of iterate k
     while k < n_iter:
         scaled = (t > 1.0) | (s > t)
         active = np.flatnonzero(scaled)
-        others = np.flatnonzero(~scaled)[1:]  # target columns still at t_n = 1
         alpha_a = alpha[:, active]
+        alpha_others = alpha[:, np.flatnonzero(~scaled)[1:]]  # targets still at t_n = 1
         b = alpha.dot((~scaled).astype(float))  # Σ_{n∉A} α_mn
-        t_a, s_a = t[active], s[active]
-        history, converged = [], False
-        if active.shape[0] == 1:  # one column: a scalar recursion on t_a
+        run = _SinkhornRun(alpha_a, b, t[active], s[active], bound)
+        while k < n_iter:
+            history = run.iterate(min(_RUN, n_iter - k))
+            k += history.shape[0]
+            # the other columns' sums at every iterate of the run: r (K, M), then (K, |others|)
+            r = 1.0 / (b + (1.0 / history).dot(alpha_a.T))
+            over = np.flatnonzero((r.dot(alpha_others) > 1.0).any(axis=1))
+            if over.shape[0] == 0 and not run.converged:
+                continue
+            last = history.shape[0] - 1 if over.shape[0] == 0 else int(over[0])
+            k -= history.shape[0] - 1 - last  # back to the first iterate with another one over
+            t[active] = history[last]
+            s = alpha.T.dot(r[last])  # column sums of that iterate
+            s[0] = 0.0
+            col = s / t
+            if col[col.argmax()] <= bound:
+                return t
+            break
+        else:
+            t[active] = history[-1]
+    return t
+
+
+#: Iterations between two checks of the columns outside the iterated set.
+_RUN = 128
+
+
+class _SinkhornRun:
+    """Alternating projections on the columns ``alpha_a`` (M, A) of :func:`_sinkhorn_scales`,
+    the others held at :math:`t_n = 1` (``b`` (M,): their row sums)."""
+
+    def __init__(self, alpha_a: np.ndarray, b: np.ndarray, t_a: np.ndarray, s_a: np.ndarray,
+                 bound: float):
+        self.bound = bound
+        self.converged = False
+        self.one = alpha_a.shape[1] == 1
+        if self.one:  # a scalar recursion: α_ma r_m = 1 / (b_m/α_ma + 1/t_a)
             col = alpha_a[:, 0]
-            takes = col > 0
-            w = b[takes] / col[takes]  # α_ma r_m = 1 / (b_m/α_ma + 1/t_a)
-            ones = np.ones(w.shape[0])
-            t_1, s_1 = float(t_a[0]), float(s_a[0])
-            while k < n_iter:
+            takes = col > 0  # rows with α_ma = 0 add nothing to s_a
+            self.w = b[takes] / col[takes]
+            self.unit = ones(self.w.shape[0])
+            self.t_1, self.s_1 = float(t_a[0]), float(s_a[0])
+        else:
+            self.alpha_a, self.alpha_at, self.b = alpha_a, alpha_a.T.copy(), b
+            self.t_a, self.s_a = t_a, s_a
+
+    def iterate(self, count: int) -> np.ndarray:
+        """Run up to ``count`` projections (fewer on convergence): ``(K, A)`` scales t_a."""
+        history = []
+        bound = self.bound
+        if self.one:
+            t_1, s_1, w, unit = self.t_1, self.s_1, self.w, self.unit
+            for _ in range(count):
                 t_1 = max(t_1, s_1)  # project onto column sums <= 1
-                k += 1
-                s_1 = float((1.0 / (w + 1.0 / t_1)).dot(ones))  # project rows; s_a = Σ α r
+                s_1 = float((1.0 / (w + 1.0 / t_1)).dot(unit))  # project rows; s_a = Σ α r
                 history.append(t_1)
                 if s_1 <= bound * t_1:  # Σ_m q_ma = s_a / t_a
-                    converged = True
+                    self.converged = True
                     break
-            history_t = np.array(history)[:, None]
-        else:
-            alpha_at = alpha_a.T.copy()
-            while k < n_iter:
-                t_a = np.maximum(t_a, s_a)  # project onto column sums <= 1
-                k += 1
-                s_a = alpha_at.dot(1.0 / (b + alpha_a.dot(1.0 / t_a)))  # project rows; s_a
-                history.append(t_a)
-                col = s_a / t_a
-                if col[col.argmax()] <= bound:
-                    converged = True
-                    break
-            history_t = np.array(history)
-        # the other columns' sums at every iterate of this run: r (K, M), then (K, |others|)
-        r = 1.0 / (b + (1.0 / history_t).dot(alpha_a.T))
-        s_others = r.dot(alpha[:, others])
-        over = np.flatnonzero((s_others > 1.0).any(axis=1))
-        last = len(history) - 1 if over.shape[0] == 0 else int(over[0])
-        k -= len(history) - 1 - last  # back to the first iterate where another column is over
-        t[active] = history_t[last]
-        s = alpha.T.dot(r[last])  # column sums of that iterate
-        s[0] = 0.0
-        col = s / t
-        if (converged and over.shape[0] == 0) or col[col.argmax()] <= bound:
-            break
-    return t
+            self.t_1, self.s_1 = t_1, s_1
+            return np.array(history)[:, None]
+        t_a, s_a = self.t_a, self.s_a
+        for _ in range(count):
+            t_a = np.maximum(t_a, s_a)  # project onto column sums <= 1
+            s_a = self.alpha_at.dot(1.0 / (self.b + self.alpha_a.dot(1.0 / t_a)))  # rows; s_a
+            history.append(t_a)
+            col = s_a / t_a
+            if col[col.argmax()] <= bound:
+                self.converged = True
+                break
+        self.t_a, self.s_a = t_a, s_a
+        return np.array(history)
 
 
 def e_s_step(
@@ -413,11 +452,12 @@ def m_step_priors(mass: np.ndarray) -> np.ndarray:
     -------
     log_prior : ndarray (N + 1,)
     """
-    total = mass.sum()
+    unit = ones(mass.shape[0])
+    total = mass.dot(unit)  # Σ_i Σ_m α_tmi
     if total <= 0:
         return np.full(mass.shape, -np.log(mass.shape[0]))
-    a = np.maximum(mass / total, PRIOR_FLOOR)
-    return np.log(a / a.sum())
+    a = np.maximum(mass / total, PRIOR_FLOOR)  # a_tn, eq. 3.29, floored
+    return np.log(a / a.dot(unit))  # renormalised
 
 
 def m_step_dynamics(
