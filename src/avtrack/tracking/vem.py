@@ -12,6 +12,7 @@ linear-Gaussian :math:`p(s_{tn}|s_{t-1,n}) = \mathcal{N}(D s_{t-1,n}, \Lambda_{t
 from __future__ import annotations
 
 import functools
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -208,9 +209,18 @@ class _SinkhornRun:
         if self.one:  # a scalar recursion: α_ma r_m = 1 / (b_m/α_ma + 1/t_a)
             col = alpha_a[:, 0]
             takes = col > 0  # rows with α_ma = 0 add nothing to s_a
-            self.w = b[takes] / col[takes]
-            self.unit = ones(self.w.shape[0])
+            w = b[takes] / col[takes]
+            self.w, self.unit = w, ones(w.shape[0])
             self.t_1, self.s_1 = float(t_a[0]), float(s_a[0])
+            # Rows the target hardly claims (b_m/α_ma ≥ 1e6) add 1/(w + u) = 1/w - u/w² to
+            # 1e-18 (u = 1/t_a ≤ 1): two constants. Usually at most three rows are left (the
+            # detections competing for the target), summed in closed form in the loop.
+            far = w >= 1e6
+            inv_far = 1.0 / w[far]
+            self.c0 = float(inv_far.sum())  # Σ 1/w
+            self.c1 = float((inv_far * inv_far).sum())  # Σ 1/w²
+            near = w[~far].tolist()
+            self.near = (near + [math.inf] * 3)[:3] if len(near) <= 3 else None
         else:
             self.alpha_a, self.alpha_at, self.b = alpha_a, alpha_a.T.copy(), b
             self.t_a, self.s_a = t_a, s_a
@@ -219,6 +229,20 @@ class _SinkhornRun:
         """Run up to ``count`` projections (fewer on convergence): ``(K, A)`` scales t_a."""
         history = []
         bound = self.bound
+        if self.one and self.near is not None:  # (1/(∞ + u) = 0 for missing rows)
+            t_1, s_1, c0, c1 = self.t_1, self.s_1, self.c0, self.c1
+            w_1, w_2, w_3 = self.near
+            for _ in range(count):
+                t_1 = max(t_1, s_1)  # project onto column sums <= 1
+                u = 1.0 / t_1
+                # project rows; s_a = Σ_m α_ma r_m = Σ_m 1 / (w_m + u)
+                s_1 = c0 - c1 * u + 1.0 / (w_1 + u) + 1.0 / (w_2 + u) + 1.0 / (w_3 + u)
+                history.append(t_1)
+                if s_1 <= bound * t_1:  # Σ_m q_ma = s_a / t_a
+                    self.converged = True
+                    break
+            self.t_1, self.s_1 = t_1, s_1
+            return np.array(history)[:, None]
         if self.one:
             t_1, s_1, w, unit = self.t_1, self.s_1, self.w, self.unit
             for _ in range(count):
