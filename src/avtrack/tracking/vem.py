@@ -12,7 +12,6 @@ linear-Gaussian :math:`p(s_{tn}|s_{t-1,n}) = \mathcal{N}(D s_{t-1,n}, \Lambda_{t
 from __future__ import annotations
 
 import functools
-import math
 from typing import NamedTuple
 
 import numpy as np
@@ -198,69 +197,94 @@ _RUN = 128
 
 
 class _SinkhornRun:
-    """Alternating projections on the columns ``alpha_a`` (M, A) of :func:`_sinkhorn_scales`,
-    the others held at :math:`t_n = 1` (``b`` (M,): their row sums)."""
+    r"""Alternating projections on the columns ``alpha_a`` ``(M, A)`` of
+    :func:`_sinkhorn_scales`, the other columns held at :math:`t_n = 1` (``b`` ``(M,)``: their
+    row sums), from the scales ``t_a`` and column sums ``s_a`` ``(A,)`` of an iterate.
+
+    With :math:`g_{ma} = \alpha_{ma}/b_m` and :math:`u_a = 1/t_a \le 1`,
+    :math:`\alpha_{ma} r_m = g_{ma} / (1 + \sum_c g_{mc} u_c)`. Rows that the iterated targets
+    hardly claim (every :math:`g_{ma} \le 10^{-6}`) add
+    :math:`g_{ma} - g_{ma}\sum_c g_{mc} u_c` to within :math:`4\cdot 10^{-18}`: constants. For
+    one or two columns and at most three other rows (the detections competing for the
+    targets), the iterations then run on floats in closed form, else on arrays.
+    """
 
     def __init__(self, alpha_a: np.ndarray, b: np.ndarray, t_a: np.ndarray, s_a: np.ndarray,
                  bound: float):
         self.bound = bound
         self.converged = False
-        self.one = alpha_a.shape[1] == 1
-        if self.one:  # a scalar recursion: α_ma r_m = 1 / (b_m/α_ma + 1/t_a)
-            col = alpha_a[:, 0]
-            takes = col > 0  # rows with α_ma = 0 add nothing to s_a
-            w = b[takes] / col[takes]
-            self.w, self.unit = w, ones(w.shape[0])
-            self.t_1, self.s_1 = float(t_a[0]), float(s_a[0])
-            # Rows the target hardly claims (b_m/α_ma ≥ 1e6) add 1/(w + u) = 1/w - u/w² to
-            # 1e-18 (u = 1/t_a ≤ 1): two constants. Usually at most three rows are left (the
-            # detections competing for the target), summed in closed form in the loop.
-            far = w >= 1e6
-            inv_far = 1.0 / w[far]
-            self.c0 = float(inv_far.sum())  # Σ 1/w
-            self.c1 = float((inv_far * inv_far).sum())  # Σ 1/w²
-            near = w[~far].tolist()
-            self.near = (near + [math.inf] * 3)[:3] if len(near) <= 3 else None
+        n_a = alpha_a.shape[1]
+        g = alpha_a / b[:, None]  # g_ma = α_ma / b_m
+        far = (g <= 1e-6).all(axis=1)
+        self.closed = n_a <= 2 and np.count_nonzero(~far) <= 3
+        if self.closed:
+            g_far = g[far]
+            near = np.zeros((3, 2))  # zero rows add nothing
+            near[:np.count_nonzero(~far), :n_a] = g[~far]
+            self.near = near.tolist()
+            c = np.zeros(2)
+            c[:n_a] = g_far.sum(axis=0)  # Σ_far g_ma
+            cc = np.zeros((2, 2))
+            cc[:n_a, :n_a] = g_far.T.dot(g_far)  # Σ_far g_ma g_mc
+            self.c, self.cc = c.tolist(), cc.tolist()
+            self.t, self.s = t_a.tolist(), s_a.tolist()
         else:
             self.alpha_a, self.alpha_at, self.b = alpha_a, alpha_a.T.copy(), b
             self.t_a, self.s_a = t_a, s_a
 
     def iterate(self, count: int) -> np.ndarray:
         """Run up to ``count`` projections (fewer on convergence): ``(K, A)`` scales t_a."""
+        if not self.closed:
+            return self._iterate_arrays(count)
         history = []
         bound = self.bound
-        if self.one and self.near is not None:  # (1/(∞ + u) = 0 for missing rows)
-            t_1, s_1, c0, c1 = self.t_1, self.s_1, self.c0, self.c1
-            w_1, w_2, w_3 = self.near
+        (g_1, h_1), (g_2, h_2), (g_3, h_3) = self.near  # g_m1, g_m2 of the near rows
+        if len(self.t) == 1:
+            (t_1,), (s_1,) = self.t, self.s
+            c_1, c_11 = self.c[0], self.cc[0][0]
             for _ in range(count):
-                t_1 = max(t_1, s_1)  # project onto column sums <= 1
-                u = 1.0 / t_1
-                # project rows; s_a = Σ_m α_ma r_m = Σ_m 1 / (w_m + u)
-                s_1 = c0 - c1 * u + 1.0 / (w_1 + u) + 1.0 / (w_2 + u) + 1.0 / (w_3 + u)
+                if s_1 > t_1:  # project onto column sums <= 1: t_a = max(t_a, s_a)
+                    t_1 = s_1
+                u_1 = 1.0 / t_1
+                # project rows; s_a = Σ_m α_ma r_m
+                s_1 = (c_1 - c_11 * u_1 + g_1 / (1.0 + g_1 * u_1) + g_2 / (1.0 + g_2 * u_1)
+                       + g_3 / (1.0 + g_3 * u_1))
                 history.append(t_1)
                 if s_1 <= bound * t_1:  # Σ_m q_ma = s_a / t_a
                     self.converged = True
                     break
-            self.t_1, self.s_1 = t_1, s_1
+            self.t, self.s = [t_1], [s_1]
             return np.array(history)[:, None]
-        if self.one:
-            t_1, s_1, w, unit = self.t_1, self.s_1, self.w, self.unit
-            for _ in range(count):
-                t_1 = max(t_1, s_1)  # project onto column sums <= 1
-                s_1 = float((1.0 / (w + 1.0 / t_1)).dot(unit))  # project rows; s_a = Σ α r
-                history.append(t_1)
-                if s_1 <= bound * t_1:  # Σ_m q_ma = s_a / t_a
-                    self.converged = True
-                    break
-            self.t_1, self.s_1 = t_1, s_1
-            return np.array(history)[:, None]
+        (t_1, t_2), (s_1, s_2) = self.t, self.s
+        (c_1, c_2), ((c_11, c_12), (_, c_22)) = self.c, self.cc
+        for _ in range(count):
+            if s_1 > t_1:  # project onto column sums <= 1: t_a = max(t_a, s_a)
+                t_1 = s_1
+            if s_2 > t_2:
+                t_2 = s_2
+            u_1, u_2 = 1.0 / t_1, 1.0 / t_2
+            # project rows: 1 / (1 + Σ_c g_mc u_c) for the near rows, then s_a = Σ_m α_ma r_m
+            d_1 = 1.0 / (1.0 + g_1 * u_1 + h_1 * u_2)
+            d_2 = 1.0 / (1.0 + g_2 * u_1 + h_2 * u_2)
+            d_3 = 1.0 / (1.0 + g_3 * u_1 + h_3 * u_2)
+            s_1 = c_1 - c_11 * u_1 - c_12 * u_2 + g_1 * d_1 + g_2 * d_2 + g_3 * d_3
+            s_2 = c_2 - c_12 * u_1 - c_22 * u_2 + h_1 * d_1 + h_2 * d_2 + h_3 * d_3
+            history.append((t_1, t_2))
+            if s_1 <= bound * t_1 and s_2 <= bound * t_2:  # Σ_m q_ma = s_a / t_a
+                self.converged = True
+                break
+        self.t, self.s = [t_1, t_2], [s_1, s_2]
+        return np.array(history)
+
+    def _iterate_arrays(self, count: int) -> np.ndarray:
+        history = []
         t_a, s_a = self.t_a, self.s_a
         for _ in range(count):
             t_a = np.maximum(t_a, s_a)  # project onto column sums <= 1
             s_a = self.alpha_at.dot(1.0 / (self.b + self.alpha_a.dot(1.0 / t_a)))  # rows; s_a
             history.append(t_a)
             col = s_a / t_a
-            if col[col.argmax()] <= bound:
+            if col[col.argmax()] <= self.bound:
                 self.converged = True
                 break
         self.t_a, self.s_a = t_a, s_a
