@@ -90,7 +90,10 @@ class VEMEngine:
     :class:`~avtrack.models.base.DiagonalObservationModel` of its position components and
     :math:`\Gamma`, :math:`\Lambda` have the pattern of :func:`~avtrack.tracking.vem.cv_pattern`
     (as they do for box trackers), :meth:`step` runs the same updates in the closed forms of
-    :func:`~avtrack.tracking.vem.predict_cv` and :func:`~avtrack.tracking.vem.e_s_step_cv`.
+    :func:`~avtrack.tracking.vem.predict_cv` and :func:`~avtrack.tracking.vem.e_s_step_cv`,
+    and keeps the states in that split form between frames: after such a step ``mu`` and
+    ``gamma`` are read-only (assign new arrays, or use :meth:`scale_covariances`, to change
+    them).
     """
 
     def __init__(
