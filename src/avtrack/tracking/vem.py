@@ -193,7 +193,7 @@ def _sinkhorn_scales(alpha: np.ndarray, s: np.ndarray, n_iter: int, bound: float
 
 
 #: Iterations between two checks of the columns outside the iterated set.
-_RUN = 128
+_RUN = 256
 
 
 class _SinkhornRun:
