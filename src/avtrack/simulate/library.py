@@ -1,0 +1,239 @@
+"""Named scenarios: ready-made scenes, drawn from a seed.
+
+``avtrack simulate NAME -o DIR [--seed S] [--duration SECONDS]`` uses these. Each builder
+returns a raw scenario mapping (validated afterwards by
+:func:`avtrack.simulate.scenario.validate_scenario`); the seed decides the number of people,
+where they are and how they move, so two seeds give two different scenes and one seed always
+gives the same one.
+
+=============  ==============================================================================
+name           scene
+=============  ==============================================================================
+meeting        2-4 people seated or shifting around a table in front of a binaural dummy
+               head (KEMAR HRTFs) and a camera, turn-taking conversation -- AVDIAR-like.
+locata-like    two talkers walking around a NAO robot head (measured NAO HRIRs, 4 top
+               microphones) along the recorded LOCATA task-6 azimuth tracks, speaking when the
+               recorded voice-activity track says so, with the robot's fan noise.
+kinovis-like   a noisy room (fan at 5 dB, diffuse noise at 10 dB SNR), three talkers who come
+               and go around the NAO head, two on the recorded Kinovis-MST tracks.
+walkout        2-3 people in front of a 4-microphone array and a camera; each walks out of the
+               camera's field of view while the conversation goes on, then comes back.
+=============  ==============================================================================
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+#: Length in seconds of the shared recorded tracks (8 ms frames).
+TRACK_SECONDS = {"locata": 7875 * 0.008, "kinovis": 4908 * 0.008}
+
+
+def _room_angle(yaw_deg: float, az_deg: float) -> float:
+    return np.deg2rad(yaw_deg + az_deg)
+
+
+def _spread_azimuths(rng: np.random.Generator, n: int, half_width: float, gap: float):
+    """``n`` azimuths in [-half_width, half_width] at least ``gap`` degrees apart."""
+    for _ in range(1000):
+        az = np.sort(rng.uniform(-half_width, half_width, n))
+        if n == 1 or np.min(np.diff(az)) >= gap:
+            return az
+    return np.linspace(-half_width, half_width, n)
+
+
+def meeting(seed: int, duration: float) -> dict:
+    rng = np.random.default_rng([seed, 1])
+    n = int(rng.integers(2, 5))
+    centre = np.array([3.0, 0.8, 1.3])
+    yaw = 90.0
+    people = []
+    for pid, az in enumerate(_spread_azimuths(rng, n, 26.0, 13.0), start=1):
+        dist = rng.uniform(1.5, 2.6)
+        height = float(rng.choice([1.2, 1.2, 1.65]))
+        ang = _room_angle(yaw, az)
+        pos = [centre[0] + dist * np.cos(ang), centre[1] + dist * np.sin(ang), height]
+        if height > 1.5 and rng.random() < 0.7:
+            # a standing person shifting between two places in view
+            ang2 = _room_angle(yaw, np.clip(az + rng.uniform(-12, 12), -28, 28))
+            d2 = np.clip(dist + rng.uniform(-0.4, 0.4), 1.4, 2.8)
+            pos2 = [centre[0] + d2 * np.cos(ang2), centre[1] + d2 * np.sin(ang2), height]
+            t1 = float(rng.uniform(0.2, 0.5) * duration)
+            t2 = t1 + max(0.5, float(np.linalg.norm(np.subtract(pos2, pos)) / 0.6))
+            motion = {
+                "type": "waypoints",
+                "waypoints": [
+                    [0.0, *pos],
+                    [t1, *pos],
+                    [t2, *pos2],
+                    [max(duration, t2 + 1), *pos2],
+                ],
+            }
+        else:
+            motion = {"type": "seated", "position": pos, "sway": 0.03}
+        people.append({"id": pid, "motion": _rounded(motion)})
+    return {
+        "name": "meeting",
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": [6.0, 5.0, 3.0], "t60": 0.4},
+        "array": {"name": "kemar", "position": centre.tolist(), "yaw_deg": yaw},
+        "camera": {"hfov_deg": 70.0, "width": 640, "height": 480},
+        "people": people,
+        "speech": {"mode": "turn-taking", "mean_turn": 2.5, "overlap_prob": 0.15},
+        "noise": {"diffuse_snr_db": 20.0, "fan_snr_db": None},
+    }
+
+
+def locata_like(seed: int, duration: float) -> dict:
+    rng = np.random.default_rng([seed, 2])
+    dims = [7.1, 9.8, 3.0]
+    centre = [3.55, 4.9, 1.4]
+    start = float(rng.uniform(0.0, max(0.0, TRACK_SECONDS["locata"] - duration)))
+    people = [
+        {
+            "id": col + 1,
+            "motion": {
+                "type": "azimuth-track",
+                "track": "locata",
+                "column": col,
+                "radius": round(float(rng.uniform(1.3, 2.2)), 3),
+                "height": round(float(rng.uniform(0.1, 0.3)), 3),
+                "start_s": round(start, 3),
+            },
+        }
+        for col in (0, 1)
+    ]
+    return {
+        "name": "locata-like",
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": dims, "t60": 0.55},
+        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
+        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+        "people": people,
+        "speech": {"mode": "vad"},
+        "noise": {"diffuse_snr_db": 30.0, "fan_snr_db": 15.0},
+        "detector": {"miss_rate": 0.15, "false_alarm_rate": 0.3},
+    }
+
+
+def kinovis_like(seed: int, duration: float) -> dict:
+    rng = np.random.default_rng([seed, 3])
+    dims = [10.0, 10.0, 5.0]
+    centre = [5.0, 5.0, 1.5]
+    start = float(rng.uniform(0.0, max(0.0, TRACK_SECONDS["kinovis"] - duration)))
+    people = []
+    for pid in (1, 2, 3):
+        if pid < 3:
+            motion = {
+                "type": "azimuth-track",
+                "track": "kinovis",
+                "column": pid - 1,
+                "radius": round(float(rng.uniform(1.5, 2.5)), 3),
+                "height": round(float(rng.uniform(0.05, 0.3)), 3),
+                "start_s": round(start, 3),
+            }
+        else:
+            motion = {
+                "type": "random-walk",
+                "area": [[2.5, 7.5], [2.5, 7.5]],
+                "height": 1.65,
+                "speed": 0.6,
+                "pause_mean": 2.0,
+            }
+        # intermittent: one or two presence intervals covering 50-85 % of the scene
+        frac = rng.uniform(0.5, 0.85)
+        if rng.random() < 0.5:
+            s = rng.uniform(0, (1 - frac) * duration)
+            present = [[s, s + frac * duration]]
+        else:
+            gap = rng.uniform(0.1, 0.5) * (1 - frac) * duration
+            first = rng.uniform(0.2, 0.8) * frac * duration
+            present = [[0.0, first], [first + gap, min(duration, frac * duration + gap)]]
+        present = [[round(float(a), 3), round(float(b), 3)] for a, b in present if b > a + 0.5]
+        present = present or [[0.0, round(float(duration), 3)]]
+        people.append({"id": pid, "motion": motion, "present": present})
+    return {
+        "name": "kinovis-like",
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": dims, "t60": 0.5},
+        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
+        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+        "people": people,
+        "speech": {"mode": "turn-taking", "mean_turn": 2.0, "mean_pause": 0.8},
+        "noise": {"diffuse_snr_db": 10.0, "fan_snr_db": 5.0},
+        "detector": {"miss_rate": 0.2, "false_alarm_rate": 0.5},
+    }
+
+
+def walkout(seed: int, duration: float) -> dict:
+    rng = np.random.default_rng([seed, 4])
+    n = int(rng.integers(2, 4))
+    centre = np.array([3.0, 0.8, 1.2])
+    yaw = 90.0
+    hfov = 60.0
+    people = []
+    slot = duration / n
+    for pid, az in enumerate(_spread_azimuths(rng, n, 20.0, 12.0), start=1):
+        dist = rng.uniform(1.6, 2.4)
+        ang = _room_angle(yaw, az)
+        home = [centre[0] + dist * np.cos(ang), centre[1] + dist * np.sin(ang), 1.65]
+        # walk out on the nearer side, well past the edge of the field of view
+        side = 1.0 if az >= 0 else -1.0
+        az_out = side * rng.uniform(hfov / 2 + 20, hfov / 2 + 40)
+        ang_out = _room_angle(yaw, az_out)
+        away = [centre[0] + dist * np.cos(ang_out), centre[1] + dist * np.sin(ang_out), 1.65]
+        away[0] = float(np.clip(away[0], 0.4, 5.6))
+        away[1] = float(np.clip(away[1], 0.4, 4.6))
+        walk = float(np.linalg.norm(np.subtract(away, home)) / 0.8)
+        t_leave = (pid - 1) * slot + rng.uniform(0.1, 0.3) * slot
+        t_out = t_leave + walk
+        t_back = t_out + rng.uniform(0.25, 0.45) * slot
+        t_home = t_back + walk
+        wps = [[0.0, *home], [t_leave, *home], [t_out, *away], [t_back, *away], [t_home, *home]]
+        if t_home < duration:
+            wps.append([duration, *home])
+        people.append({"id": pid, "motion": _rounded({"type": "waypoints", "waypoints": wps})})
+    return {
+        "name": "walkout",
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": [6.0, 5.0, 3.0], "t60": 0.3},
+        "array": {"name": "nao4", "hrir": False, "position": centre.tolist(), "yaw_deg": yaw},
+        "camera": {"hfov_deg": hfov, "width": 640, "height": 480},
+        "people": people,
+        "speech": {"mode": "turn-taking"},
+        "noise": {"diffuse_snr_db": 20.0, "fan_snr_db": None},
+    }
+
+
+def _rounded(value):
+    if isinstance(value, dict):
+        return {k: _rounded(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_rounded(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return round(float(value), 4)
+    return value
+
+
+#: name -> builder(seed, duration) returning a raw scenario mapping.
+SCENARIOS: dict[str, Callable[[int, float], dict]] = {
+    "meeting": meeting,
+    "locata-like": locata_like,
+    "kinovis-like": kinovis_like,
+    "walkout": walkout,
+}
+
+
+def named_scenario(name: str, seed: int = 0, duration: float = 20.0) -> dict:
+    """The raw scenario mapping of a named scene (see the module docstring)."""
+    if name not in SCENARIOS:
+        raise ValueError(f"unknown scenario {name!r}; choose from {', '.join(SCENARIOS)}")
+    if duration <= 0:
+        raise ValueError(f"duration: expected seconds > 0, got {duration}")
+    return SCENARIOS[name](int(seed), float(duration))
