@@ -214,7 +214,7 @@ def from_azimuth_track(
     az = np.asarray(azimuth_deg, dtype=float).ravel()
     if az.size < 2 or not np.all(np.isfinite(az)):
         raise ValueError("azimuth_deg: expected a finite track of at least two frames")
-    first = int(round(start_s / frame_s))
+    first = round(start_s / frame_s)
     last = (
         az.size if duration is None else min(az.size, first + int(np.ceil(duration / frame_s)) + 1)
     )
