@@ -1,0 +1,237 @@
+"""DOA / acoustic-track CSV files.
+
+Header exactly ``frame,time_s,id,azimuth_deg,elevation_deg,weight,active``, then one row per
+estimate: the frame index, its time in seconds, the track id (-1 for frame-wise peaks), the
+azimuth in the array frame (degrees counter-clockwise from the x axis, in (−180, 180]), the
+elevation (degrees, [−90, 90]), a weight, and whether the estimate is active (``1``/``0``).
+
+:func:`read_doa_csv` raises :class:`~avtrack.errors.InputError` naming the file and the 1-based
+row (the header is row 1); :func:`write_doa_csv` writes atomically with 4-decimal times and
+3-decimal angles.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from avtrack.errors import InputError
+from avtrack.io.base import atomic_write
+
+DOA_HEADER = "frame,time_s,id,azimuth_deg,elevation_deg,weight,active"
+_COLUMNS = DOA_HEADER.split(",")
+_FIELDS = ("frames", "time_s", "ids", "azimuth_deg", "elevation_deg", "weight", "active")
+_TRUE = frozenset({"1", "true"})
+_FALSE = frozenset({"0", "false"})
+
+
+def wrap_azimuth(deg: float | np.ndarray) -> float | np.ndarray:
+    """Angles in degrees wrapped to (−180, 180] (−180 maps to 180).
+
+    Parameters
+    ----------
+    deg : float or ndarray
+        Finite angles; NaN stays NaN.
+
+    Returns
+    -------
+    float or ndarray
+        Same shape as ``deg``.
+    """
+    a = np.asarray(deg, dtype=float)
+    w = np.mod(a + 180.0, 360.0) - 180.0  # in [-180, 180)
+    w = np.where(w <= -180.0, w + 360.0, w)
+    return float(w) if np.ndim(deg) == 0 else w
+
+
+@dataclass(frozen=True, eq=False)
+class DOATable:
+    """Rows of a DOA / track CSV, as columns.
+
+    Attributes
+    ----------
+    frames : ndarray (K,) int
+        Frame index, >= 0.
+    time_s : ndarray (K,) float
+        Time of the frame, seconds, >= 0.
+    ids : ndarray (K,) int
+        Track id, -1 for frame-wise peaks.
+    azimuth_deg : ndarray (K,) float
+        Azimuth in degrees, wrapped to (−180, 180] on construction.
+    elevation_deg : ndarray (K,) float
+        Elevation in degrees, [−90, 90].
+    weight : ndarray (K,) float
+        Finite weight (peak power, posterior weight, ...).
+    active : ndarray (K,) bool
+    """
+
+    frames: np.ndarray
+    time_s: np.ndarray
+    ids: np.ndarray
+    azimuth_deg: np.ndarray
+    elevation_deg: np.ndarray
+    weight: np.ndarray
+    active: np.ndarray
+
+    def __post_init__(self) -> None:
+        k = np.shape(self.frames)[0] if np.ndim(self.frames) else -1
+        for name in _FIELDS:
+            if np.ndim(getattr(self, name)) != 1 or np.shape(getattr(self, name))[0] != k:
+                raise ValueError(
+                    f"DOATable: {name} must have shape (K,) like frames "
+                    f"({max(k, 0)},), got {np.shape(getattr(self, name))}"
+                )
+        for name in ("frames", "ids"):
+            v = np.asarray(getattr(self, name))
+            if v.dtype == bool or not np.issubdtype(v.dtype, np.number):
+                raise ValueError(f"DOATable: {name} must be integers, got dtype {v.dtype}")
+            if k and not (np.all(np.isfinite(v)) and np.all(v == np.round(v))):
+                raise ValueError(f"DOATable: {name} must be integers")
+            object.__setattr__(self, name, v.astype(np.int64))
+        if k and self.frames.min() < 0:
+            raise ValueError("DOATable: frames must be >= 0")
+        if k and self.ids.min() < -1:
+            raise ValueError("DOATable: ids must be >= -1 (-1 for frame-wise peaks)")
+        for name in ("time_s", "azimuth_deg", "elevation_deg", "weight"):
+            v = np.asarray(getattr(self, name), dtype=float)
+            if not np.all(np.isfinite(v)):
+                raise ValueError(f"DOATable: {name} must be finite (no NaN or inf)")
+            object.__setattr__(self, name, v)
+        if k and self.time_s.min() < 0:
+            raise ValueError("DOATable: time_s must be >= 0")
+        if k and np.abs(self.elevation_deg).max() > 90:
+            raise ValueError("DOATable: elevation_deg must be in [-90, 90]")
+        object.__setattr__(self, "azimuth_deg", np.asarray(wrap_azimuth(self.azimuth_deg)))
+        act = np.asarray(self.active)
+        if act.dtype != bool:
+            if not np.issubdtype(act.dtype, np.number) or not np.all((act == 0) | (act == 1)):
+                raise ValueError("DOATable: active must be bool or 0/1")
+            act = act != 0
+        object.__setattr__(self, "active", act)
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+    @classmethod
+    def empty(cls) -> DOATable:
+        """A table with no rows."""
+        z = np.zeros(0)
+        return cls(z.astype(np.int64), z, z.astype(np.int64), z, z, z, z.astype(bool))
+
+    def select(self, mask: np.ndarray) -> DOATable:
+        """Rows where ``mask`` is True (or at the given indices), as a new table."""
+        return DOATable(*(getattr(self, name)[mask] for name in _FIELDS))
+
+
+def write_doa_csv(path: str | Path, table: DOATable) -> None:
+    """Write ``table`` atomically: header, then one row per estimate in table order.
+
+    Angles are rounded to 3 decimals (an azimuth that rounds to −180 is written as 180),
+    times to 4 decimals; weights with 6 significant digits.
+    """
+    if not isinstance(table, DOATable):
+        raise TypeError(f"write_doa_csv: table must be a DOATable, got {type(table).__name__}")
+    az = wrap_azimuth(np.round(table.azimuth_deg, 3))
+    el = np.round(table.elevation_deg, 3)
+    rows = [DOA_HEADER + "\n"]
+    for f, t, i, a, e, w, on in zip(
+        table.frames, table.time_s, table.ids, az, el, table.weight, table.active, strict=True
+    ):
+        rows.append(f"{f},{t:.4f},{i},{a:.3f},{e:.3f},{w:.6g},{int(on)}\n")
+    with atomic_write(path) as fh:
+        fh.writelines(rows)
+
+
+def _parse_int(text: str, name: str, path: Path, row: int) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise InputError(f"{name} must be an integer, got {text!r}", path, row) from None
+
+
+def _parse_float(text: str, name: str, path: Path, row: int) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"{name} is not a number: {text!r}", path, row) from None
+    if not math.isfinite(v):
+        raise InputError(f"{name} is {text!r}, expected a finite number", path, row)
+    return v
+
+
+def read_doa_csv(path: str | Path) -> DOATable:
+    """Read a DOA / track CSV.
+
+    Returns
+    -------
+    DOATable
+        Rows in file order; a file with only the header gives an empty table.
+
+    Raises
+    ------
+    InputError
+        Missing or empty file, a header other than ``frame,time_s,id,azimuth_deg,
+        elevation_deg,weight,active``, a row without 7 fields, a non-integer frame or id, a
+        non-number / NaN / inf value, a negative frame or time, an id < -1, an azimuth outside
+        (−180, 180], an elevation outside [−90, 90], or an ``active`` other than 0/1.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError("file not found" if not path.exists() else "not a regular file", path)
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("not a text file (cannot decode as UTF-8)", path) from None
+    lines = text.splitlines()
+    if not lines:
+        raise InputError(f"empty file, expected the header {DOA_HEADER!r}", path)
+    header = lines[0].strip()
+    if header != DOA_HEADER:
+        raise InputError(f"header must be {DOA_HEADER!r}, got {header!r}", path, 1)
+    cols: list[list[float]] = [[] for _ in _COLUMNS]
+    for row, line in enumerate(lines[1:], start=2):
+        if not line.strip():
+            continue
+        parts = [p.strip() for p in line.split(",")]
+        if len(parts) != len(_COLUMNS):
+            raise InputError(
+                f"expected {len(_COLUMNS)} comma-separated values ({DOA_HEADER}), "
+                f"got {len(parts)}",
+                path,
+                row,
+            )
+        frame = _parse_int(parts[0], "frame", path, row)
+        time_s = _parse_float(parts[1], "time_s", path, row)
+        tid = _parse_int(parts[2], "id", path, row)
+        az = _parse_float(parts[3], "azimuth_deg", path, row)
+        el = _parse_float(parts[4], "elevation_deg", path, row)
+        weight = _parse_float(parts[5], "weight", path, row)
+        on = parts[6].lower()
+        if frame < 0:
+            raise InputError(f"frame must be >= 0, got {frame}", path, row)
+        if time_s < 0:
+            raise InputError(f"time_s must be >= 0, got {parts[1]}", path, row)
+        if tid < -1:
+            raise InputError(f"id must be >= -1 (-1 for frame-wise peaks), got {tid}", path, row)
+        if not -180.0 < az <= 180.0:
+            raise InputError(f"azimuth_deg must be in (-180, 180], got {parts[3]}", path, row)
+        if not -90.0 <= el <= 90.0:
+            raise InputError(f"elevation_deg must be in [-90, 90], got {parts[4]}", path, row)
+        if on not in _TRUE | _FALSE:
+            raise InputError(f"active must be 1 or 0, got {parts[6]!r}", path, row)
+        for c, v in zip(cols, (frame, time_s, tid, az, el, weight, on in _TRUE), strict=True):
+            c.append(v)
+    if not cols[0]:
+        return DOATable.empty()
+    return DOATable(
+        np.array(cols[0], dtype=np.int64),
+        np.array(cols[1]),
+        np.array(cols[2], dtype=np.int64),
+        np.array(cols[3]),
+        np.array(cols[4]),
+        np.array(cols[5]),
+        np.array(cols[6], dtype=bool),
+    )
