@@ -183,11 +183,17 @@ def read_mot(path: str | Path, kind: Kind = "det") -> MOTData:
 
 
 def write_mot(path: str | Path, data: MOTData) -> None:
-    """Write tracker results atomically as ``frame,id,left,top,width,height,conf,-1,-1,-1``.
+    """Write rows atomically as ``frame,id,left,top,width,height,conf,<extra>``.
 
-    The file is written to a temporary name and renamed, so an interrupted run never leaves a
-    half-written result.
+    ``<extra>`` is ``data.extra``'s columns when it has any (e.g. the ``class,visibility`` of
+    MOT16 ground truth, or ``x,y,z`` of MOT15), else ``-1,-1,-1`` (the MOTChallenge result
+    format). The file is written to a temporary name and renamed, so an interrupted run never
+    leaves a half-written file.
     """
+    extra = data.extra if data.extra.shape[1] else None
     with atomic_write(path) as fh:
-        for f, i, b, s in zip(data.frames, data.ids, data.boxes, data.scores, strict=True):
-            fh.write(f"{f},{i},{b[0]:.2f},{b[1]:.2f},{b[2]:.2f},{b[3]:.2f},{s:.4g},-1,-1,-1\n")
+        for k, (f, i, b, s) in enumerate(
+            zip(data.frames, data.ids, data.boxes, data.scores, strict=True)
+        ):
+            tail = "-1,-1,-1" if extra is None else ",".join(f"{v:.6g}" for v in extra[k])
+            fh.write(f"{f},{i},{b[0]:.2f},{b[1]:.2f},{b[2]:.2f},{b[3]:.2f},{s:.4g},{tail}\n")
