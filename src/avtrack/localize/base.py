@@ -1,0 +1,265 @@
+"""The frame-wise localizer interface, its registry and its result type.
+
+A :class:`Localizer` is an online object: :meth:`Localizer.process` takes the next block of
+multichannel audio (any number of samples), runs the STFT front-end
+(:class:`avtrack.audio.stft.StreamingSTFT`) and returns the heat maps of the frames the block
+completes -- one value per candidate direction of its :class:`~avtrack.localize.grid.DirectionGrid`
+per STFT frame. Blocks of any size give exactly the frames of the whole signal processed at
+once. :meth:`Localizer.run` (and :func:`localize`) is the batch helper.
+
+Implementations register under the name used by the CLI
+(``@register_localizer("dprtf-eg")``); :data:`LOCALIZERS` maps names to classes.
+The base class validates every block, then hands the STFT frames to the subclass's
+:meth:`Localizer._process_stft`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from avtrack.audio.arrays import MicArray
+from avtrack.audio.stft import STFTConfig, StreamingSTFT
+from avtrack.localize.grid import DirectionGrid
+
+LOCALIZERS: dict[str, type[Localizer]] = {}
+"""Registered localizer classes by name (``"dprtf-eg"``, ``"dprtf-rem"``, ...)."""
+
+
+def register_localizer(name: str) -> Callable[[type[Localizer]], type[Localizer]]:
+    """Class decorator registering a :class:`Localizer` subclass under ``name``."""
+
+    def deco(cls: type[Localizer]) -> type[Localizer]:
+        if name in LOCALIZERS and LOCALIZERS[name] is not cls:
+            raise ValueError(f"register_localizer: {name!r} is already registered")
+        cls.name = name
+        LOCALIZERS[name] = cls
+        return cls
+
+    return deco
+
+
+@dataclass(frozen=True, eq=False)
+class HeatMaps:
+    """Frame-wise heat maps (CGMM weights or smoothed SRP) over the candidate directions.
+
+    Attributes
+    ----------
+    frames : ndarray (n_frames,) int
+        STFT frame indices (0 is the first frame of the signal).
+    time_s : ndarray (n_frames,) float
+        Frame times (window centres), seconds.
+    weights : ndarray (n_frames, n_candidates) float
+        Heat-map value of each candidate direction at each frame (non-negative; CGMM weights
+        sum to one).
+    n_observations : ndarray (n_frames,) int
+        Number of features used at each frame (``|C_t|`` for the CGMM methods; the number of
+        bins for SRP-PHAT).
+    """
+
+    frames: np.ndarray
+    time_s: np.ndarray
+    weights: np.ndarray
+    n_observations: np.ndarray
+
+    def __post_init__(self) -> None:
+        w = np.asarray(self.weights, dtype=float)
+        if w.ndim != 2:
+            raise ValueError(f"HeatMaps: weights must be 2-D (n_frames, D), got {w.shape}")
+        t_ = w.shape[0]
+        for name in ("frames", "time_s", "n_observations"):
+            if np.shape(getattr(self, name)) != (t_,):
+                raise ValueError(
+                    f"HeatMaps: {name} must have shape ({t_},), "
+                    f"got {np.shape(getattr(self, name))}"
+                )
+        object.__setattr__(self, "weights", w)
+        object.__setattr__(self, "frames", np.asarray(self.frames, dtype=np.int64))
+        object.__setattr__(self, "time_s", np.asarray(self.time_s, dtype=float))
+        object.__setattr__(self, "n_observations", np.asarray(self.n_observations, dtype=np.int64))
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+    @classmethod
+    def concatenate(cls, parts: list[HeatMaps], n_candidates: int) -> HeatMaps:
+        """Frames of several consecutive results, in order."""
+        if not parts:
+            return cls(
+                np.zeros(0, int), np.zeros(0), np.zeros((0, n_candidates)), np.zeros(0, int)
+            )
+        return cls(
+            np.concatenate([p.frames for p in parts]),
+            np.concatenate([p.time_s for p in parts]),
+            np.concatenate([p.weights for p in parts], axis=0),
+            np.concatenate([p.n_observations for p in parts]),
+        )
+
+
+class Localizer(ABC):
+    """Online frame-wise multiple-source localizer.
+
+    Parameters
+    ----------
+    array : MicArray
+        The microphone array; WAV channel ``k`` is microphone ``k``.
+    grid : DirectionGrid, optional
+        Candidate directions (default: 72 azimuths every 5 degrees, thesis §5.5.1).
+    config : optional
+        The implementation's parameters (its ``Config`` dataclass); default ``Config()``.
+    stft : STFTConfig, optional
+        Front-end (default: 16 kHz, 16 ms Hann window, 8 ms hop, 128 bins).
+    """
+
+    name: ClassVar[str] = ""
+    Config: ClassVar[type] = type(None)
+    default_threshold: ClassVar[float] = 0.0
+    """Peak threshold giving a reasonable MD/FA balance on simulated rooms (CLI default)."""
+
+    def __init__(
+        self,
+        array: MicArray,
+        grid: DirectionGrid | None = None,
+        config: Any = None,
+        stft: STFTConfig | None = None,
+    ) -> None:
+        if not isinstance(array, MicArray):
+            raise TypeError(f"{type(self).__name__}: array must be a MicArray, got {array!r}")
+        if array.n_mics < 2:
+            raise ValueError(
+                f"{type(self).__name__}: the array needs at least 2 microphones, "
+                f"got {array.n_mics}"
+            )
+        grid = DirectionGrid.azimuths() if grid is None else grid
+        if not isinstance(grid, DirectionGrid):
+            raise TypeError(f"{type(self).__name__}: grid must be a DirectionGrid, got {grid!r}")
+        config = self.Config() if config is None else config
+        if not isinstance(config, self.Config):
+            raise TypeError(
+                f"{type(self).__name__}: config must be a {self.Config.__name__}, "
+                f"got {type(config).__name__}"
+            )
+        self.array = array
+        self.grid = grid
+        self.config = config
+        self.stft_config = STFTConfig() if stft is None else stft
+        self._stft = StreamingSTFT(array.n_mics, self.stft_config)
+        self._setup()
+        self.reset()
+
+    @property
+    def n_channels(self) -> int:
+        return self.array.n_mics
+
+    @property
+    def fs(self) -> int:
+        return self.stft_config.fs
+
+    def reset(self) -> None:
+        """Start a new signal: clears the STFT buffer and the algorithm's state."""
+        self._stft.reset()
+        self._reset_state()
+
+    def process(self, block: np.ndarray) -> HeatMaps:
+        """Feed the next samples; return the heat maps of the frames they complete.
+
+        Parameters
+        ----------
+        block : ndarray (n_channels, n_samples)
+            Real, finite samples at ``fs``; any ``n_samples >= 0``.
+
+        Returns
+        -------
+        HeatMaps
+            ``n_frames`` = number of new STFT frames (may be 0).
+        """
+        block = np.asarray(block)
+        if block.ndim != 2 or block.shape[0] != self.n_channels:
+            raise ValueError(
+                f"{type(self).__name__}.process: block must have shape ({self.n_channels}, "
+                f"n_samples) for array {self.array.name!r}, got {block.shape}"
+            )
+        first = self._stft.frames_done
+        spec = self._stft.process(block)  # validates dtype and finiteness
+        t_ = spec.shape[2]
+        frames = np.arange(first, first + t_)
+        if t_ == 0:
+            weights = np.zeros((0, self.grid.size))
+            n_obs = np.zeros(0, dtype=np.int64)
+        else:
+            weights, n_obs = self._process_stft(spec)
+        return HeatMaps(frames, self.stft_config.frame_times(frames), weights, n_obs)
+
+    def run(self, signal: np.ndarray, block_size: int | None = None) -> HeatMaps:
+        """Batch helper: reset, then process a whole signal ``(n_channels, n_samples)``.
+
+        ``block_size`` (samples) feeds it in blocks, as a stream would; the result is the same.
+        """
+        self.reset()
+        signal = np.asarray(signal)
+        if block_size is None:
+            return self.process(signal)
+        if isinstance(block_size, bool) or not isinstance(block_size, int) or block_size < 1:
+            raise ValueError(f"run: block_size must be a positive integer, got {block_size!r}")
+        if signal.ndim != 2:
+            raise ValueError(
+                f"run: signal must be 2-D (n_channels, n_samples), got {signal.shape}"
+            )
+        parts = [
+            self.process(signal[:, i : i + block_size])
+            for i in range(0, signal.shape[1], block_size)
+        ]
+        return HeatMaps.concatenate(parts, self.grid.size)
+
+    # -- implementation hooks -------------------------------------------------------------
+    def _setup(self) -> None:  # noqa: B027 - optional hook
+        """Precompute what depends only on the array, grid and configuration."""
+
+    @abstractmethod
+    def _reset_state(self) -> None:
+        """Clear the algorithm's recursive state."""
+
+    @abstractmethod
+    def _process_stft(self, spec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Heat maps of consecutive STFT frames.
+
+        Parameters
+        ----------
+        spec : ndarray (n_channels, n_freqs, n_frames), complex, n_frames >= 1
+
+        Returns
+        -------
+        weights : ndarray (n_frames, n_candidates)
+        n_observations : ndarray (n_frames,) int
+        """
+
+
+def make_localizer(
+    method: str,
+    array: MicArray,
+    grid: DirectionGrid | None = None,
+    config: Any = None,
+    stft: STFTConfig | None = None,
+) -> Localizer:
+    """Instantiate the localizer registered as ``method`` (see :data:`LOCALIZERS`)."""
+    if method not in LOCALIZERS:
+        raise ValueError(
+            f"make_localizer: method must be one of {sorted(LOCALIZERS)}, got {method!r}"
+        )
+    return LOCALIZERS[method](array, grid, config, stft)
+
+
+def localize(
+    signal: np.ndarray,
+    array: MicArray,
+    method: str = "dprtf-eg",
+    grid: DirectionGrid | None = None,
+    config: Any = None,
+    stft: STFTConfig | None = None,
+) -> HeatMaps:
+    """Heat maps of a whole signal ``(n_channels, n_samples)`` with the named method."""
+    return make_localizer(method, array, grid, config, stft).run(signal)

@@ -1,0 +1,238 @@
+"""Complex-Gaussian-mixture localization with exponentiated-gradient weight updates (DPRTF-EG).
+
+Thesis §5.3 (eqs. 5.12–5.19), after Li et al. [78, 81]. Each DP-RTF feature ``ĉ^i_{t,f}``
+(:mod:`avtrack.audio.dprtf`) is drawn from a complex Gaussian mixture over the ``D`` candidate
+directions, with fixed means -- the features predicted for each direction
+(:func:`avtrack.localize.grid.dprtf_means`) -- and a common variance ``sigma^2``:
+
+.. math::
+
+    p(\\hat c^i_{t,f}) = \\sum_{d=1}^D w_d\\, \\mathcal N_c(\\hat c^i_{t,f}; c^{i,d}_f, \\sigma^2)
+    \\qquad (5.12)
+
+The weights ``w_t`` are the only parameters; they are updated once per frame by exponentiated
+gradient on the normalised negative log-likelihood of the frame's features ``L_t`` (5.13) plus
+an entropy penalty ``gamma H`` (5.14) that favours sparse weights:
+
+.. math::
+
+    \\partial L_t / \\partial w_d = -\\frac{1}{|C_t|} \\sum_{\\hat c \\in C_t}
+        \\frac{\\mathcal N_c(\\hat c; c^d, \\sigma^2)}{\\sum_{d'} w_{t-1,d'}
+        \\mathcal N_c(\\hat c; c^{d'}, \\sigma^2)},
+    \\qquad \\partial H / \\partial w_d = -(1 + \\log w_{t-1,d})          (5.17)
+
+    r_{t-1,d} = \\exp(-\\eta (\\partial L_t / \\partial w_d
+                           + \\gamma \\partial H / \\partial w_d)),
+    \\qquad w_{t,d} = r_{t-1,d} w_{t-1,d} / \\sum_{d'} r_{t-1,d'} w_{t-1,d'}   (5.18, 5.19)
+
+(the thesis prints ``∂(-L_t)`` in (5.18); the descent direction of the objective (5.15) is the
+one written here: weights of well-explained directions grow). When a frame has no feature
+(silence), the weights relax to uniform, ``w_t = (1 - eta') w_{t-1} + eta' / D``. After each
+frame the weights are smoothed along azimuth,
+``w_d <- (w_d + 0.02 w_{d-1} + 0.02 w_{d+1}) / 1.04``.
+
+Thesis settings (§5.5.1): ``eta = 0.07``, ``eta' = 0.065``, ``gamma = 0.1``, ``Q = 8``,
+``rho = 1``. The thesis does not give ``sigma^2``; the default here was chosen on simulated
+reverberant rooms.
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from avtrack.audio.dprtf import DPRTFConfig, DPRTFEstimator
+from avtrack.localize.base import Localizer, register_localizer
+from avtrack.localize.grid import DirectionGrid, dprtf_means, transfer_functions
+
+_TINY = 1e-300
+
+
+def _positive(owner: str, name: str, value: float, allow_zero: bool = False) -> None:
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and np.isfinite(value)
+    ok = ok and (value >= 0 if allow_zero else value > 0)
+    if not ok:
+        bound = ">= 0" if allow_zero else "> 0"
+        raise ValueError(f"{owner}: {name} must be a finite number {bound}, got {value!r}")
+
+
+def cgmm_likelihood_ratios(
+    features: np.ndarray, means: np.ndarray, weights: np.ndarray, variance: float
+) -> np.ndarray:
+    """``N_c(ĉ_k; c_{k,d}, sigma^2) / sum_d' w_d' N_c(ĉ_k; c_{k,d'}, sigma^2)`` (eq. 5.17).
+
+    Computed with the largest exponent of each feature factored out, so that no likelihood
+    under- or overflows.
+
+    Parameters
+    ----------
+    features : ndarray (K,), complex
+    means : ndarray (K, D), complex
+        The mean of each component for each feature (``c^{i,d}_f`` at the feature's ``i, f``).
+    weights : ndarray (D,)
+        Current mixture weights ``w_{t-1}`` (positive, summing to one).
+    variance : float
+        ``sigma^2``.
+
+    Returns
+    -------
+    ndarray (K, D)
+    """
+    diff = features[:, None] - means
+    log_n = -(diff.real**2 + diff.imag**2) / variance  # log N_c up to -log(pi sigma^2)
+    log_n -= log_n.max(axis=1, keepdims=True)
+    dens = np.exp(log_n)
+    denom = dens @ weights  # sum_d' w_d' N_kd'
+    return dens / np.maximum(denom, _TINY)[:, None]
+
+
+def eg_update(weights: np.ndarray, ratios: np.ndarray, step: float, entropy: float) -> np.ndarray:
+    """Exponentiated-gradient step with entropy regularisation (eqs. 5.17–5.19).
+
+    Parameters
+    ----------
+    weights : ndarray (D,)
+        ``w_{t-1}``, positive, summing to one.
+    ratios : ndarray (K, D)
+        :func:`cgmm_likelihood_ratios` of the frame's ``K >= 1`` features.
+    step, entropy : float
+        ``eta`` and ``gamma``.
+
+    Returns
+    -------
+    ndarray (D,)
+        ``w_t``, positive and summing to one (computed in the log domain).
+    """
+    log_w = np.log(np.maximum(weights, _TINY))
+    grad_l = -ratios.mean(axis=0)  # dL_t/dw_d                       (eq. 5.17)
+    grad_h = -(1.0 + log_w)  # dH/dw_d                               (eq. 5.17)
+    log_w = log_w - step * (grad_l + entropy * grad_h)  # log(r w)  (eq. 5.18)
+    log_w -= log_w.max()
+    w = np.exp(log_w)
+    return w / w.sum()  # w_t = r w / sum(r w)                      (eq. 5.19)
+
+
+def decay_to_uniform(weights: np.ndarray, rate: float) -> np.ndarray:
+    """Silent frame: ``w_t = (1 - eta') w_{t-1} + eta' / D`` (thesis §5.3.2)."""
+    return (1.0 - rate) * weights + rate / weights.shape[-1]
+
+
+def spatial_smoothing(weights: np.ndarray, grid: DirectionGrid, coef: float) -> np.ndarray:
+    """``w_d <- (w_d + coef w_{d-1} + coef w_{d+1}) / (1 + 2 coef)`` along azimuth (§5.3.2).
+
+    Neighbours wrap around on a circular azimuth grid; at the ends of a non-circular one the
+    missing neighbour is left out. The result is renormalised to the input's sum.
+    """
+    if coef == 0:
+        return weights
+    w = weights.reshape(grid.n_elevations, grid.n_azimuths)
+    if grid.circular:
+        out = w + coef * (np.roll(w, 1, axis=1) + np.roll(w, -1, axis=1))
+    else:
+        out = w.copy()
+        out[:, 1:] += coef * w[:, :-1]
+        out[:, :-1] += coef * w[:, 1:]
+    out = out.reshape(-1)
+    return out * (weights.sum() / out.sum())
+
+
+@dataclass(frozen=True)
+class EGConfig:
+    """Parameters of :class:`DPRTFEG` (thesis §5.5.1 unless stated).
+
+    Attributes
+    ----------
+    variance : float
+        ``sigma^2`` of the complex Gaussian components (not given in the thesis).
+    step : float
+        ``eta``, the exponentiated-gradient step (0.07).
+    entropy : float
+        ``gamma``, the entropy regularisation weight (0.1).
+    silence_rate : float
+        ``eta'``, relaxation to uniform in frames without features (0.065).
+    smoothing : float
+        Spatial smoothing coefficient (0.02).
+    dprtf : DPRTFConfig
+        DP-RTF feature extraction (``Q = 8``, ``rho = 1``, consistency threshold 0.75).
+    """
+
+    variance: float = 0.1
+    step: float = 0.07
+    entropy: float = 0.1
+    silence_rate: float = 0.065
+    smoothing: float = 0.02
+    dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
+
+    def __post_init__(self) -> None:
+        _positive("EGConfig", "variance", self.variance)
+        _positive("EGConfig", "step", self.step)
+        _positive("EGConfig", "entropy", self.entropy, allow_zero=True)
+        for name in ("silence_rate", "smoothing"):
+            _positive("EGConfig", name, getattr(self, name), allow_zero=True)
+            if getattr(self, name) > 1:
+                raise ValueError(f"EGConfig: {name} must be <= 1, got {getattr(self, name)!r}")
+        if not isinstance(self.dprtf, DPRTFConfig):
+            raise TypeError(f"EGConfig: dprtf must be a DPRTFConfig, got {self.dprtf!r}")
+
+
+class CGMMLocalizer(Localizer):
+    """Common part of the CGMM localizers: DP-RTF (or PRP) features and the mixture means.
+
+    Subclasses define :meth:`_update` (how the weights follow the frame's likelihood ratios).
+    Their ``Config`` must have ``variance``, ``silence_rate``, ``smoothing`` and ``dprtf``.
+    """
+
+    def _setup(self) -> None:
+        freqs = self.stft_config.freqs_hz
+        h = transfer_functions(self.array, self.grid, freqs, self.fs)
+        # (I-1, F, D): boolean indexing with a feature mask (I-1, F) gives (K, D)
+        self._means = np.ascontiguousarray(dprtf_means(h, self.config.dprtf.phase_only))
+        self._estimator = DPRTFEstimator(
+            self.n_channels, self.stft_config.n_freqs, freqs, self.config.dprtf
+        )
+
+    def _reset_state(self) -> None:
+        self._estimator.reset()
+        self.weights = np.full(self.grid.size, 1.0 / self.grid.size)  #: current w_t (D,)
+
+    def _process_stft(self, spec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        cfg = self.config
+        t_ = spec.shape[2]
+        out = np.empty((t_, self.grid.size))
+        n_obs = np.zeros(t_, dtype=np.int64)
+        w = self.weights
+        for t in range(t_):
+            values, valid = self._estimator.step(spec[:, :, t])
+            k = int(np.count_nonzero(valid))
+            if k:
+                ratios = cgmm_likelihood_ratios(values[valid], self._means[valid], w, cfg.variance)
+                w = self._update(w, ratios)
+            else:
+                w = decay_to_uniform(w, cfg.silence_rate)
+            w = spatial_smoothing(w, self.grid, cfg.smoothing)
+            out[t] = w
+            n_obs[t] = k
+        self.weights = w
+        return out, n_obs
+
+    @abstractmethod
+    def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
+        """New weights ``(D,)`` from ``w_{t-1}`` and the frame's likelihood ratios ``(K, D)``."""
+
+
+@register_localizer("dprtf-eg")
+class DPRTFEG(CGMMLocalizer):
+    """DPRTF-EG: online DP-RTF features, CGMM, exponentiated gradient (thesis §5.2–5.3).
+
+    See the module docstring for the model (eqs. 5.12–5.19). Heat maps are the weights
+    ``w_t`` ``(D,)`` after each frame (positive, summing to one).
+    """
+
+    Config: ClassVar[type] = EGConfig
+    default_threshold: ClassVar[float] = 0.04
+
+    def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
+        return eg_update(weights, ratios, self.config.step, self.config.entropy)

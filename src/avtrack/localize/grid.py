@@ -1,0 +1,200 @@
+"""Candidate directions and the direct-path features predicted for each (thesis §5.3.1, §5.5.1).
+
+A :class:`DirectionGrid` holds ``D`` candidate directions ``theta_d`` laid out as
+``n_elevations`` rows of ``n_azimuths`` azimuths (azimuth varies fastest). The thesis uses
+``D = 72`` azimuths every 5 degrees in [-175, 180] at elevation 0
+(:meth:`DirectionGrid.azimuths`).
+
+Predicted features. :func:`transfer_functions` gives the direct-path transfer function
+``h^i_f(theta_d)`` of every microphone:
+
+- free-field arrays: a pure delay, ``h^i = exp(-2j pi f tau_i)`` with the far-field delays of
+  :func:`avtrack.audio.arrays.steering_delays`;
+- ``"hrtf"`` arrays: the DTFT, at the bin frequencies, of the measured head-related impulse
+  response of the nearest measured direction, resampled to the STFT rate.
+
+:func:`dprtf_means` turns them into the CGMM means ``c^{i,d}_f`` of thesis eq. 5.12: the ratio
+``r = h^i / h^1`` normalised like the observed features (``r / sqrt(1 + |r|^2)``; a free-field
+ratio has modulus 1, so its means have modulus ``1/sqrt(2)``), or only its phase for
+pair-wise relative phase (PRP) features. :func:`steering_phases` gives the PHAT steering
+vectors of SRP-PHAT.
+
+Shapes: transfer functions ``(n_mics, n_freqs, n_candidates)``; means
+``(n_mics - 1, n_freqs, n_candidates)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from avtrack.audio.arrays import MicArray, steering_delays
+
+
+@dataclass(frozen=True, eq=False)
+class DirectionGrid:
+    """Candidate source directions on a regular azimuth x elevation lattice.
+
+    Attributes
+    ----------
+    azimuth_values : ndarray (n_azimuths,)
+        Distinct azimuths in degrees, strictly increasing, in (-180, 180].
+    elevation_values : ndarray (n_elevations,)
+        Distinct elevations in degrees, strictly increasing, in [-90, 90].
+
+    Candidate ``d = e * n_azimuths + a`` has azimuth ``azimuth_values[a]`` and elevation
+    ``elevation_values[e]``. The azimuth axis is *circular* (neighbours wrap around) when the
+    azimuths are evenly spaced and cover the full circle.
+    """
+
+    azimuth_values: np.ndarray
+    elevation_values: np.ndarray
+
+    def __post_init__(self) -> None:
+        az = np.array(self.azimuth_values, dtype=float).reshape(-1)
+        el = np.array(self.elevation_values, dtype=float).reshape(-1)
+        if az.size == 0 or el.size == 0:
+            raise ValueError(
+                "DirectionGrid: azimuth_values and elevation_values must be non-empty"
+            )
+        if not (np.all(np.isfinite(az)) and np.all(np.isfinite(el))):
+            raise ValueError("DirectionGrid: directions must be finite")
+        if np.any(az <= -180.0) or np.any(az > 180.0):
+            raise ValueError(
+                "DirectionGrid: azimuth_values must lie in (-180, 180], got "
+                f"{az.min()}..{az.max()}"
+            )
+        if np.any(np.abs(el) > 90.0):
+            raise ValueError("DirectionGrid: elevation_values must lie in [-90, 90]")
+        if np.any(np.diff(az) <= 0) or np.any(np.diff(el) <= 0):
+            raise ValueError(
+                "DirectionGrid: azimuth_values and elevation_values must be strictly increasing"
+            )
+        for a in (az, el):
+            a.setflags(write=False)
+        object.__setattr__(self, "azimuth_values", az)
+        object.__setattr__(self, "elevation_values", el)
+
+    @classmethod
+    def azimuths(cls, step_deg: float = 5.0, elevation_deg: float = 0.0) -> DirectionGrid:
+        """Evenly spaced azimuths ``-180 + step, ..., 180`` at one elevation.
+
+        The default is the thesis grid: 72 azimuths every 5 degrees in [-175, 180].
+        """
+        n = 360.0 / step_deg if step_deg > 0 else 0.0
+        if not (step_deg > 0 and abs(n - round(n)) < 1e-9 and round(n) >= 1):
+            raise ValueError(f"DirectionGrid.azimuths: step_deg must divide 360, got {step_deg!r}")
+        az = -180.0 + step_deg * np.arange(1, round(n) + 1)
+        return cls(az, [float(elevation_deg)])
+
+    @classmethod
+    def sphere(cls, az_step_deg: float = 5.0, elevations_deg=(-30.0, 0.0, 30.0)) -> DirectionGrid:
+        """Evenly spaced azimuths (as :meth:`azimuths`) at each of several elevations."""
+        base = cls.azimuths(az_step_deg)
+        return cls(base.azimuth_values, elevations_deg)
+
+    @property
+    def n_azimuths(self) -> int:
+        return self.azimuth_values.size
+
+    @property
+    def n_elevations(self) -> int:
+        return self.elevation_values.size
+
+    @property
+    def size(self) -> int:
+        """``D``, the number of candidates."""
+        return self.n_azimuths * self.n_elevations
+
+    @property
+    def azimuth_deg(self) -> np.ndarray:
+        """``(D,)`` azimuth of each candidate."""
+        return np.tile(self.azimuth_values, self.n_elevations)
+
+    @property
+    def elevation_deg(self) -> np.ndarray:
+        """``(D,)`` elevation of each candidate."""
+        return np.repeat(self.elevation_values, self.n_azimuths)
+
+    @property
+    def circular(self) -> bool:
+        """Whether the azimuths are evenly spaced around the whole circle."""
+        az = self.azimuth_values
+        if az.size < 3:
+            return False
+        gaps = np.diff(np.r_[az, az[0] + 360.0])
+        return bool(np.allclose(gaps, gaps[0], atol=1e-6))
+
+    def nearest(self, azimuth_deg: np.ndarray | float, elevation_deg=0.0) -> np.ndarray:
+        """Index of the candidate nearest (great circle) to each given direction."""
+        az, el = np.broadcast_arrays(
+            np.asarray(azimuth_deg, dtype=float), np.asarray(elevation_deg, dtype=float)
+        )
+        u = _unit(az.reshape(-1), el.reshape(-1))
+        c = _unit(self.azimuth_deg, self.elevation_deg)
+        return np.argmax(u @ c.T, axis=1).reshape(az.shape)
+
+
+def _unit(az_deg: np.ndarray, el_deg: np.ndarray) -> np.ndarray:
+    az, el = np.deg2rad(az_deg), np.deg2rad(el_deg)
+    return np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1)
+
+
+def transfer_functions(
+    array: MicArray, grid: DirectionGrid, freqs_hz: np.ndarray, fs: int = 16000
+) -> np.ndarray:
+    """Direct-path transfer functions ``h^i_f(theta_d)``.
+
+    Parameters
+    ----------
+    array : MicArray
+        Free-field (delays from the positions) or ``"hrtf"`` (measured HRIRs).
+    grid : DirectionGrid
+    freqs_hz : ndarray (n_freqs,)
+        Bin frequencies.
+    fs : int
+        Sampling rate of the STFT (HRIRs are resampled to it).
+
+    Returns
+    -------
+    ndarray (n_mics, n_freqs, D), complex
+    """
+    f = np.asarray(freqs_hz, dtype=float).reshape(-1)
+    if not np.all(np.isfinite(f)) or np.any(f < 0):
+        raise ValueError("transfer_functions: freqs_hz must be finite and >= 0")
+    if array.kind == "hrtf":
+        hrir = array.hrir.resampled(int(fs))
+        idx = hrir.nearest_index(grid.azimuth_deg, grid.elevation_deg)  # (D,)
+        irs = hrir.irs[idx]  # (D, M, L)
+        n = np.arange(irs.shape[2])
+        kernel = np.exp(-2j * np.pi * np.outer(f, n) / fs)  # (F, L): DTFT at the bins
+        return np.einsum("dml,fl->mfd", irs, kernel)
+    tau = steering_delays(array, grid.azimuth_deg, grid.elevation_deg)  # (D, M) seconds
+    return np.exp(-2j * np.pi * f[None, :, None] * tau.T[:, None, :])  # h^i = e^{-2j pi f tau_i}
+
+
+def dprtf_means(h: np.ndarray, phase_only: bool = False) -> np.ndarray:
+    """CGMM means ``c^{i,d}_f`` (thesis eq. 5.12) from transfer functions ``(M, F, D)``.
+
+    ``r = h^i / h^1`` for ``i = 2..M``, normalised as the observed features:
+    ``r / sqrt(1 + |r|^2)``, or ``(r / |r|) / sqrt(2)`` with ``phase_only``.
+
+    Returns
+    -------
+    ndarray (M - 1, F, D), complex
+    """
+    h = np.asarray(h)
+    if h.ndim != 3 or h.shape[0] < 2:
+        raise ValueError(f"dprtf_means: h must have shape (n_mics >= 2, F, D), got {h.shape}")
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = h[1:] / h[:1]
+        out = r / (np.abs(r) * np.sqrt(2.0)) if phase_only else r / np.sqrt(1.0 + np.abs(r) ** 2)
+    return np.where(np.isfinite(out), out, 0.0)
+
+
+def steering_phases(h: np.ndarray) -> np.ndarray:
+    """PHAT steering vectors ``h / |h|`` ``(M, F, D)`` (0 where ``h == 0``)."""
+    h = np.asarray(h)
+    mag = np.abs(h)
+    return np.divide(h, mag, out=np.zeros_like(h), where=mag > 0)

@@ -1,0 +1,166 @@
+"""Online DP-RTF: RLS (Algorithm 2) against least squares, recovery of a known CTF, the
+consistency test (eq. 5.11), noise handling and the two solvers' agreement."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avtrack.audio.dprtf import (
+    DPRTFConfig,
+    DPRTFEstimator,
+    dprtf_features,
+    forgetting_factor,
+    rls_pair_updates,
+)
+from avtrack.audio.noise import NoiseConfig
+
+
+def ctf_mixture(seed: int, n_mics: int = 4, n_freqs: int = 12, n_frames: int = 150, q: int = 8):
+    """STFT frames of one source through known CTFs, x^i_t = sum_q a^i_q s_{t-q} (eq. 5.1)."""
+    rng = np.random.default_rng(seed)
+    a = rng.standard_normal((n_mics, q, n_freqs)) + 1j * rng.standard_normal((n_mics, q, n_freqs))
+    a *= np.exp(-0.4 * np.arange(q))[None, :, None]  # decaying reverberation
+    s = rng.standard_normal((n_freqs, n_frames + q)) + 1j * rng.standard_normal(
+        (n_freqs, n_frames + q)
+    )
+    x = np.zeros((n_mics, n_freqs, n_frames), dtype=complex)
+    for k in range(q):
+        x += a[:, k, :, None] * s[None, :, q - k : q - k + n_frames]
+    return x, a
+
+
+def test_forgetting_factor_hand_values():
+    # I = 4, Q = 8: P = (IQ - 1) / (I(I-1)/2) = 31/6, lambda = (P-1)/(P+1) = 25/37
+    assert forgetting_factor(4, 8) == pytest.approx(25 / 37)
+    assert forgetting_factor(8, 8) == pytest.approx((63 / 28 - 1) / (63 / 28 + 1))
+    assert forgetting_factor(4, 1) == 0.0  # P clipped to 1
+    with pytest.raises(ValueError, match="n_mics must be >= 2"):
+        forgetting_factor(1, 8)
+
+
+def test_rls_pair_updates_equal_least_squares():
+    """M Sherman-Morrison steps from P = I / delta: a = (delta I + sum x* x^T)^-1 sum x* y."""
+    rng = np.random.default_rng(3)
+    f_, m_, n_ = 5, 7, 4
+    x = rng.standard_normal((f_, m_, n_)) + 1j * rng.standard_normal((f_, m_, n_))
+    y = rng.standard_normal((f_, m_)) + 1j * rng.standard_normal((f_, m_))
+    delta = 0.3
+    a, p = rls_pair_updates(
+        np.zeros((f_, n_), complex), np.tile(np.eye(n_) / delta, (f_, 1, 1)).astype(complex), x, y
+    )
+    for f in range(f_):
+        r = delta * np.eye(n_) + x[f].conj().T @ x[f]  # R = sum_m x~^{m*} x~^{mT}   (eq. 5.9)
+        rhs = x[f].conj().T @ y[f]
+        np.testing.assert_allclose(a[f], np.linalg.solve(r, rhs), atol=1e-10)
+        np.testing.assert_allclose(p[f], np.linalg.inv(r), atol=1e-10)
+
+
+@pytest.mark.parametrize("solver", ["cholesky", "rls"])
+def test_rls_recovers_a_known_ctf(solver):
+    x, a = ctf_mixture(0)
+    est = DPRTFEstimator(4, x.shape[1], config=DPRTFConfig(noise=None, solver=solver))
+    out = est.run(x)
+    true = a[1:, 0, :] / a[:1, 0, :]  # DP-RTF a^i_0 / a^1_0
+    expected = true / np.sqrt(1 + np.abs(true) ** 2)
+    assert out.valid[:, :, -1].all()
+    np.testing.assert_allclose(out.values[:, :, -1], expected, atol=1e-6)
+    # once enough equations have been seen (a few frames), every estimate is right
+    assert np.abs(out.values[:, :, 60:] - expected[:, :, None]).max() < 1e-5
+    # no feature before a bin has had as many equations as unknowns (P = 31/6 frames)
+    assert est.min_frames == 6 and not out.valid[:, :, :5].any()
+
+
+def test_solvers_agree_frame_by_frame():
+    rng = np.random.default_rng(2)
+    x = rng.standard_normal((4, 10, 80)) + 1j * rng.standard_normal((4, 10, 80))
+    outs = [
+        DPRTFEstimator(4, 10, config=DPRTFConfig(noise=None, solver=s)).run(x)
+        for s in ("cholesky", "rls")
+    ]
+    np.testing.assert_array_equal(outs[0].valid, outs[1].valid)
+    np.testing.assert_allclose(outs[0].values, outs[1].values, atol=1e-7)
+
+
+def test_features_do_not_depend_on_the_signal_scale():
+    x, _ = ctf_mixture(4, n_frames=60)
+    out1 = DPRTFEstimator(4, x.shape[1], config=DPRTFConfig(noise=None)).run(x)
+    out2 = DPRTFEstimator(4, x.shape[1], config=DPRTFConfig(noise=None)).run(1e-4 * x)
+    np.testing.assert_allclose(out1.values, out2.values, atol=1e-8)
+
+
+def test_consistency_test_hand_cases():
+    # identical estimates: d = 1, feature c / sqrt(1 + |c|^2)
+    v, ok, d = dprtf_features(np.array([0.5j]), np.array([0.5j]))
+    assert ok[0] and d[0] == pytest.approx(1.0)
+    assert v[0] == pytest.approx(0.5j / np.sqrt(1.25))
+    # opposite estimates: c_1 = (1, 1), c_2 = (1, -1) are orthogonal, d = 0
+    v, ok, d = dprtf_features(np.array([1.0 + 0j]), np.array([-1.0 + 0j]))
+    assert not ok[0] and d[0] == pytest.approx(0.0) and v[0] == 0
+    # d = |1 + conj(c1) c2| / sqrt((1 + |c1|^2)(1 + |c2|^2)): 1 and 2 give 3 / sqrt(10)
+    _, ok, d = dprtf_features(np.array([1.0 + 0j]), np.array([2.0 + 0j]), threshold=0.94)
+    assert d[0] == pytest.approx(3 / np.sqrt(10)) and ok[0]
+    _, ok, _ = dprtf_features(np.array([1.0 + 0j]), np.array([2.0 + 0j]), threshold=0.95)
+    assert not ok[0]
+    # phase-only features: modulus 1/sqrt(2); non-finite estimates are rejected
+    v, ok, _ = dprtf_features(np.array([3j, np.inf]), np.array([3j, 1.0]), phase_only=True)
+    assert v[0] == pytest.approx(1j / np.sqrt(2)) and ok.tolist() == [True, False]
+
+
+def test_two_sources_in_one_bin_fail_the_consistency_test():
+    """Two sources of equal power at every bin: no single CTF explains the frames, and the
+    estimates with the two reference channels often disagree."""
+    x1, _ = ctf_mixture(10, n_frames=200)
+    x2, _ = ctf_mixture(11, n_frames=200)
+    single = DPRTFEstimator(4, 12, config=DPRTFConfig(noise=None)).run(x1)
+    mixed = DPRTFEstimator(4, 12, config=DPRTFConfig(noise=None)).run(x1 + x2)
+    assert single.valid[:, :, 20:].mean() > 0.99
+    assert mixed.valid[:, :, 20:].mean() < 0.9
+
+
+def test_noise_only_input_gives_no_features_and_speech_bins_do():
+    rng = np.random.default_rng(7)
+    i_, f_, t_ = 4, 16, 400
+    noise = 0.1 * (rng.standard_normal((i_, f_, t_)) + 1j * rng.standard_normal((i_, f_, t_)))
+    x, _ = ctf_mixture(8, n_freqs=f_, n_frames=t_)
+    x[:, :, :250] = 0.0  # the source starts at frame 250
+    est = DPRTFEstimator(i_, f_, config=DPRTFConfig(noise=NoiseConfig()))
+    out = est.run(noise + x)
+    # minimum statistics settles within its 1 s window (125 frames)
+    assert out.speech[:, 20:250].mean() < 0.1 and out.speech[:, 150:250].mean() < 0.02
+    assert out.valid[:, :, 150:250].mean() < 0.02
+    assert out.speech[:, 260:360].mean() > 0.9 and out.valid[:, :, 260:360].mean() > 0.8
+
+
+def test_frequency_range_limits_the_bins():
+    x, _ = ctf_mixture(1, n_freqs=8, n_frames=30)
+    freqs = np.arange(8) * 100.0
+    cfg = DPRTFConfig(noise=None, freq_range_hz=(150.0, 450.0))
+    out = DPRTFEstimator(4, 8, freqs, cfg).run(x)
+    assert not out.speech[[0, 1, 5, 6, 7]].any() and out.speech[[2, 3, 4]].all()
+    with pytest.raises(ValueError, match="freq_range_hz needs freqs_hz"):
+        DPRTFEstimator(4, 8, config=cfg)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"ctf_length": 0}, "ctf_length must be a positive integer"),
+        ({"forgetting": 1.5}, "forgetting must be in"),
+        ({"psd_smoothing": 1.0}, "psd_smoothing must be in"),
+        ({"consistency_threshold": 2.0}, "consistency_threshold must be in"),
+        ({"solver": "qr"}, "solver must be one of"),
+        ({"freq_range_hz": (5.0, 1.0)}, "freq_range_hz must be"),
+    ],
+)
+def test_config_validation(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        DPRTFConfig(**kwargs)
+
+
+def test_estimator_validation():
+    with pytest.raises(ValueError, match="n_channels must be an integer >= 2"):
+        DPRTFEstimator(1, 8)
+    est = DPRTFEstimator(3, 8)
+    with pytest.raises(ValueError, match="spec must have shape"):
+        est.run(np.zeros((4, 8, 3), complex))

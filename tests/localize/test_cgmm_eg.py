@@ -1,0 +1,105 @@
+"""CGMM likelihood ratios, exponentiated-gradient updates (eqs. 5.12-5.19), smoothing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from avtrack.localize.cgmm_eg import (
+    EGConfig,
+    cgmm_likelihood_ratios,
+    decay_to_uniform,
+    eg_update,
+    spatial_smoothing,
+)
+from avtrack.localize.grid import DirectionGrid
+
+
+def complex_gauss(c, mean, var):
+    return np.exp(-(np.abs(c - mean) ** 2) / var) / (np.pi * var)
+
+
+def test_likelihood_ratios_match_the_direct_formula():
+    rng = np.random.default_rng(0)
+    feats = rng.standard_normal(5) + 1j * rng.standard_normal(5)
+    means = rng.standard_normal((5, 4)) + 1j * rng.standard_normal((5, 4))
+    w = np.array([0.1, 0.2, 0.3, 0.4])
+    n = complex_gauss(feats[:, None], means, 0.5)
+    expected = n / (n @ w)[:, None]  # N_kd / sum_d' w_d' N_kd'   (eq. 5.17)
+    np.testing.assert_allclose(cgmm_likelihood_ratios(feats, means, w, 0.5), expected)
+    # far-away features with a tiny variance: no underflow
+    r = cgmm_likelihood_ratios(feats + 50, means, w, 1e-3)
+    assert np.all(np.isfinite(r)) and np.allclose(r @ w, 1.0)
+
+
+def test_eg_update_hand_case():
+    w = np.array([0.25, 0.25, 0.5])
+    ratios = np.array([[2.0, 1.0, 0.5], [1.0, 1.0, 1.0]])
+    eta, gamma = 0.5, 0.1
+    grad_l = -ratios.mean(axis=0)
+    grad_h = -(1 + np.log(w))
+    r = np.exp(-eta * (grad_l + gamma * grad_h))  # eq. 5.18
+    np.testing.assert_allclose(eg_update(w, ratios, eta, gamma), r * w / np.sum(r * w))
+    # the best-explained direction gains weight
+    assert eg_update(w, ratios, eta, 0.0)[0] > 0.25
+
+
+def test_entropy_term_sharpens():
+    w = np.array([0.2, 0.3, 0.5])
+    flat = np.ones((1, 3))
+    assert eg_update(w, flat, 0.1, 0.5)[2] > 0.5 > eg_update(w, flat, 0.1, 0.0)[2] - 1e-15
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    w=arrays(float, 6, elements=st.floats(1e-12, 1.0)),
+    ratios=arrays(float, (3, 6), elements=st.floats(0.0, 1e6)),
+    eta=st.floats(1e-3, 5.0),
+    gamma=st.floats(0.0, 2.0),
+)
+def test_eg_update_stays_on_the_simplex(w, ratios, eta, gamma):
+    w = w / w.sum()
+    out = eg_update(w, ratios, eta, gamma)
+    assert np.all(np.isfinite(out)) and np.all(out >= 0)
+    assert out.sum() == pytest.approx(1.0, abs=1e-12)
+    g = DirectionGrid.azimuths(60.0)
+    s = spatial_smoothing(decay_to_uniform(out, 0.065), g, 0.02)
+    assert np.all(s > 0) and s.sum() == pytest.approx(1.0, abs=1e-12)
+
+
+def test_silence_relaxes_to_uniform():
+    w = np.array([1.0, 0.0, 0.0, 0.0])
+    out = decay_to_uniform(w, 0.065)
+    np.testing.assert_allclose(out, [0.935 + 0.065 / 4, 0.065 / 4, 0.065 / 4, 0.065 / 4])
+    for _ in range(300):
+        out = decay_to_uniform(out, 0.065)
+    np.testing.assert_allclose(out, 0.25, atol=1e-8)
+
+
+def test_spatial_smoothing_hand_case_wraps_around():
+    g = DirectionGrid.azimuths(90.0)  # -90, 0, 90, 180
+    w = np.array([1.0, 0.0, 0.0, 0.0])
+    # w_d <- (w_d + 0.02 w_{d-1} + 0.02 w_{d+1}) / 1.04, circular
+    np.testing.assert_allclose(
+        spatial_smoothing(w, g, 0.02), [1 / 1.04, 0.02 / 1.04, 0, 0.02 / 1.04]
+    )
+    lin = DirectionGrid([-30.0, 0.0, 30.0], [0.0])
+    out = spatial_smoothing(np.array([0.0, 0.0, 1.0]), lin, 0.5)
+    np.testing.assert_allclose(out, [0.0, 1 / 3, 2 / 3])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"variance": 0.0}, "variance must be a finite number > 0"),
+        ({"step": -1.0}, "step must be"),
+        ({"silence_rate": 1.5}, "silence_rate must be <= 1"),
+        ({"dprtf": {}}, "dprtf must be a DPRTFConfig"),
+    ],
+)
+def test_config_validation(kwargs, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        EGConfig(**kwargs)

@@ -1,0 +1,95 @@
+"""Contract tests of every registered localizer on the shared synthetic scene."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avtrack.audio.arrays import MicArray
+from avtrack.localize import (
+    LOCALIZERS,
+    DirectionGrid,
+    HeatMaps,
+    Localizer,
+    localize,
+    make_localizer,
+    register_localizer,
+)
+from avtrack.localize.cgmm_eg import EGConfig
+from tests.localize.conftest import SOURCE_AZIMUTH_DEG
+
+METHODS = sorted(LOCALIZERS)
+
+
+def test_registry_has_the_thesis_methods():
+    assert set(METHODS) == {"dprtf-eg", "dprtf-rem", "prp-rem", "srp-phat"}
+    for name, cls in LOCALIZERS.items():
+        assert cls.name == name and issubclass(cls, Localizer)
+    with pytest.raises(ValueError, match="already registered"):
+        register_localizer("dprtf-eg")(LOCALIZERS["srp-phat"])
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_static_source_is_localised_within_5_degrees(method, static_scene):
+    array, y = static_scene
+    heat = localize(y, array, method)
+    assert isinstance(heat, HeatMaps)
+    grid = DirectionGrid.azimuths()
+    assert heat.weights.shape == (len(heat), grid.size) and np.all(heat.weights >= 0)
+    second_half = heat.weights[len(heat) // 2 :]
+    best = grid.azimuth_deg[np.argmax(second_half.mean(axis=0))]
+    assert abs(best - SOURCE_AZIMUTH_DEG) <= 5.0
+    top = grid.azimuth_deg[np.argmax(second_half, axis=1)]
+    assert np.mean(np.abs(top - SOURCE_AZIMUTH_DEG) <= 5.0) > 0.8  # pauses included
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_block_streaming_equals_whole_file(method, static_scene):
+    array, y = static_scene
+    y = y[:, :12000]
+    loc = make_localizer(method, array)
+    whole = loc.run(y)
+    for block in (1, 1000, 4097):
+        streamed = loc.run(y[:, : 3000 if block == 1 else None], block_size=block)
+        n = len(streamed)
+        np.testing.assert_array_equal(streamed.frames, whole.frames[:n])
+        np.testing.assert_allclose(streamed.weights, whole.weights[:n], rtol=0, atol=1e-10)
+        np.testing.assert_array_equal(streamed.n_observations, whole.n_observations[:n])
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_process_continues_a_stream_and_reports_frames(method, static_scene):
+    array, y = static_scene
+    loc = make_localizer(method, array)
+    a = loc.process(y[:, :200])  # less than one window
+    b = loc.process(y[:, 200:1000])
+    assert len(a) == 0 and a.weights.shape == (0, 72)
+    np.testing.assert_array_equal(b.frames, np.arange(6))
+    np.testing.assert_allclose(b.time_s, 0.008 * (np.arange(6) + 1))
+    if method != "srp-phat":  # CGMM weights are a distribution
+        np.testing.assert_allclose(b.weights.sum(axis=1), 1.0)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_bad_input_is_rejected(method, static_scene):
+    array, y = static_scene
+    loc = make_localizer(method, array)
+    with pytest.raises(ValueError, match=r"block must have shape \(4, n_samples\)"):
+        loc.process(y[:3])
+    with pytest.raises(ValueError, match="finite"):
+        loc.process(np.full((4, 300), np.nan))
+    with pytest.raises(ValueError, match="block_size must be a positive integer"):
+        loc.run(y, block_size=0)
+
+
+def test_constructor_validation():
+    array = MicArray("pair", np.array([[0, 0.1, 0], [0, -0.1, 0]]))
+    with pytest.raises(ValueError, match="method must be one of"):
+        make_localizer("music", array)
+    with pytest.raises(TypeError, match="config must be a EGConfig"):
+        make_localizer("dprtf-eg", array, config=object())
+    with pytest.raises(TypeError, match="array must be a MicArray"):
+        make_localizer("srp-phat", np.zeros((2, 3)))
+    with pytest.raises(TypeError, match="grid must be a DirectionGrid"):
+        make_localizer("srp-phat", array, grid=[0, 90])
+    assert isinstance(make_localizer("dprtf-eg", array, config=EGConfig()), Localizer)
