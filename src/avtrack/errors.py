@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 
@@ -31,4 +32,5 @@ class InputError(ValueError):
             if row is not None:
                 where += f", row {row}"
             where += ": "
-        super().__init__(where + message)
+        # one readable line, whatever the wrapped library's message looked like
+        super().__init__(where + re.sub(r"\s*\n\s*", " ", str(message)).strip())

@@ -51,10 +51,10 @@ def read_seqinfo(path: str | Path) -> dict[str, int | str]:
         ``name``, ``width``, ``height``, ``length``, ``frame_rate`` (those present).
     """
     path = Path(path)
-    parser = configparser.ConfigParser()
+    parser = configparser.ConfigParser(interpolation=None)
     try:
         parser.read_string(path.read_text())
-    except (OSError, configparser.Error) as exc:
+    except (OSError, UnicodeDecodeError, configparser.Error) as exc:
         raise InputError(f"cannot read seqinfo: {exc}", path) from None
     if "Sequence" not in parser:
         raise InputError("no [Sequence] section", path)

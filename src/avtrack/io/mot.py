@@ -91,6 +91,11 @@ class MOTData:
         )
 
 
+#: Largest frame number / id accepted (ids and frames are stored as int64; beyond 2**53 a
+#: float no longer holds every integer).
+MAX_INDEX = 2**53
+
+
 def _parse_row(text: str, path: Path, row: int) -> list[float]:
     parts = [p.strip() for p in (text.split(",") if "," in text else text.split())]
     if parts and parts[-1] == "":
@@ -112,10 +117,12 @@ def _parse_row(text: str, path: Path, row: int) -> list[float]:
                     ("height", h)):
         if not math.isfinite(v):
             raise InputError(f"{name} is {v}, expected a finite number", path, row)
-    if not math.isfinite(tid) or tid != int(tid):
+    if not math.isfinite(tid) or tid != int(tid) or abs(tid) > MAX_INDEX:
         raise InputError(f"id (column 2) must be an integer, got {parts[1]!r}", path, row)
-    if frame != int(frame) or frame < 1:
-        raise InputError(f"frame must be an integer >= 1, got {parts[0]!r}", path, row)
+    if frame != int(frame) or not 1 <= frame <= MAX_INDEX:
+        raise InputError(
+            f"frame must be an integer in [1, {MAX_INDEX}], got {parts[0]!r}", path, row
+        )
     if w <= 0 or h <= 0:
         raise InputError(f"box width and height must be > 0, got {w:g} x {h:g}", path, row)
     if len(values) > 6 and math.isnan(values[6]):

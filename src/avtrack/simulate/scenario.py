@@ -376,11 +376,12 @@ def load_scenario(path: str | Path) -> dict:
     if not path.is_file():
         raise InputError("scenario file not found", path)
     try:
-        raw = yaml.safe_load(path.read_text())
+        raw = yaml.safe_load(path.read_bytes())
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         row = None if mark is None else mark.line + 1
-        raise InputError(f"not valid YAML ({getattr(exc, 'problem', exc)})", path, row) from None
+        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
+        raise InputError(f"not valid YAML ({problem})", path, row) from None
     if raw is None:
         raise InputError("empty scenario file", path)
     return validate_scenario(raw, path)
