@@ -121,7 +121,7 @@ def _parse_row(text: str, path: Path, row: int) -> list[float]:
         raise InputError(f"id (column 2) must be an integer, got {parts[1]!r}", path, row)
     if frame != int(frame) or not 1 <= frame <= MAX_INDEX:
         raise InputError(
-            f"frame must be an integer in [1, {MAX_INDEX}], got {parts[0]!r}", path, row
+            f"frame must be an integer >= 1, got {parts[0]!r} (at most 2**53)", path, row
         )
     if w <= 0 or h <= 0:
         raise InputError(f"box width and height must be > 0, got {w:g} x {h:g}", path, row)
