@@ -93,3 +93,14 @@ def test_constructor_validation():
     with pytest.raises(TypeError, match="grid must be a DirectionGrid"):
         make_localizer("srp-phat", array, grid=[0, 90])
     assert isinstance(make_localizer("dprtf-eg", array, config=EGConfig()), Localizer)
+
+
+@pytest.mark.parametrize("method", ["dprtf-eg", "dprtf-rem", "prp-rem"])
+def test_frames_with_too_few_features_relax_to_uniform(method, static_scene):
+    array, y = static_scene
+    cfg = LOCALIZERS[method].Config(min_features=10**6)
+    heat = make_localizer(method, array, config=cfg).run(y[:, :8000])
+    np.testing.assert_allclose(heat.weights, 1 / 72)
+    assert heat.n_observations.max() > 0  # features were there, but too few to count
+    with pytest.raises(ValueError, match="min_features must be an integer >= 0"):
+        LOCALIZERS[method].Config(min_features=-1)

@@ -94,7 +94,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--threshold",
         type=float,
         metavar="T",
-        help="peak threshold (default: the method's, e.g. 0.04 for dprtf-eg)",
+        help="peak threshold (default: the method's, e.g. 0.03 for dprtf-eg)",
     )
     p.add_argument(
         "--floor",

@@ -32,8 +32,8 @@ frame the weights are smoothed along azimuth,
 ``w_d <- (w_d + 0.02 w_{d-1} + 0.02 w_{d+1}) / 1.04``.
 
 Thesis settings (§5.5.1): ``eta = 0.07``, ``eta' = 0.065``, ``gamma = 0.1``, ``Q = 8``,
-``rho = 1``. The thesis does not give ``sigma^2``; the default here was chosen on simulated
-reverberant rooms.
+``rho = 1``. The thesis does not give ``sigma^2``; the default here (0.1) was chosen on
+simulated reverberant rooms (``benchmarks/bench_localize.py``), as was ``min_features``.
 """
 
 from __future__ import annotations
@@ -59,6 +59,11 @@ def _positive(owner: str, name: str, value: float, allow_zero: bool = False) -> 
         raise ValueError(f"{owner}: {name} must be a finite number {bound}, got {value!r}")
 
 
+def _count(owner: str, name: str, value: int) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 0:
+        raise ValueError(f"{owner}: {name} must be an integer >= 0, got {value!r}")
+
+
 def cgmm_likelihood_ratios(
     features: np.ndarray, means: np.ndarray, weights: np.ndarray, variance: float
 ) -> np.ndarray:
@@ -81,8 +86,11 @@ def cgmm_likelihood_ratios(
     -------
     ndarray (K, D)
     """
-    diff = features[:, None] - means
-    log_n = -(diff.real**2 + diff.imag**2) / variance  # log N_c up to -log(pi sigma^2)
+    # log N_c(ĉ; c, s2) = -|ĉ - c|^2 / s2 + const = (2 Re(ĉ* c) - |c|^2) / s2 + const_k
+    log_n = (
+        2.0 * (features.real[:, None] * means.real + features.imag[:, None] * means.imag)
+        - (means.real**2 + means.imag**2)
+    ) / variance
     log_n -= log_n.max(axis=1, keepdims=True)
     dens = np.exp(log_n)
     denom = dens @ weights  # sum_d' w_d' N_kd'
@@ -128,14 +136,8 @@ def spatial_smoothing(weights: np.ndarray, grid: DirectionGrid, coef: float) -> 
     """
     if coef == 0:
         return weights
-    w = weights.reshape(grid.n_elevations, grid.n_azimuths)
-    if grid.circular:
-        out = w + coef * (np.roll(w, 1, axis=1) + np.roll(w, -1, axis=1))
-    else:
-        out = w.copy()
-        out[:, 1:] += coef * w[:, :-1]
-        out[:, :-1] += coef * w[:, 1:]
-    out = out.reshape(-1)
+    prev, nxt, has_prev, has_next = grid.azimuth_neighbours
+    out = weights + coef * (weights[prev] * has_prev + weights[nxt] * has_next)
     return out * (weights.sum() / out.sum())
 
 
@@ -155,6 +157,12 @@ class EGConfig:
         ``eta'``, relaxation to uniform in frames without features (0.065).
     smoothing : float
         Spatial smoothing coefficient (0.02).
+    min_features : int
+        Frames with fewer features are treated as silent (relax to uniform); 20 by default,
+        chosen on simulated rooms. The thesis relaxes only when there is no feature at all
+        (0); with noise, a few stray noise bins
+        pass the speech test in most silent frames, and since the gradient is normalised by
+        ``|C_t|`` they would otherwise steer the weights as strongly as a speech frame.
     dprtf : DPRTFConfig
         DP-RTF feature extraction (``Q = 8``, ``rho = 1``, consistency threshold 0.75).
     """
@@ -164,9 +172,11 @@ class EGConfig:
     entropy: float = 0.1
     silence_rate: float = 0.065
     smoothing: float = 0.02
+    min_features: int = 20
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
 
     def __post_init__(self) -> None:
+        _count("EGConfig", "min_features", self.min_features)
         _positive("EGConfig", "variance", self.variance)
         _positive("EGConfig", "step", self.step)
         _positive("EGConfig", "entropy", self.entropy, allow_zero=True)
@@ -182,7 +192,8 @@ class CGMMLocalizer(Localizer):
     """Common part of the CGMM localizers: DP-RTF (or PRP) features and the mixture means.
 
     Subclasses define :meth:`_update` (how the weights follow the frame's likelihood ratios).
-    Their ``Config`` must have ``variance``, ``silence_rate``, ``smoothing`` and ``dprtf``.
+    Their ``Config`` must have ``variance``, ``silence_rate``, ``smoothing``,
+    ``min_features`` and ``dprtf``.
     """
 
     def _setup(self) -> None:
@@ -207,7 +218,7 @@ class CGMMLocalizer(Localizer):
         for t in range(t_):
             values, valid = self._estimator.step(spec[:, :, t])
             k = int(np.count_nonzero(valid))
-            if k:
+            if k and k >= cfg.min_features:
                 ratios = cgmm_likelihood_ratios(values[valid], self._means[valid], w, cfg.variance)
                 w = self._update(w, ratios)
             else:
@@ -232,7 +243,7 @@ class DPRTFEG(CGMMLocalizer):
     """
 
     Config: ClassVar[type] = EGConfig
-    default_threshold: ClassVar[float] = 0.04
+    default_threshold: ClassVar[float] = 0.03
 
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
         return eg_update(weights, ratios, self.config.step, self.config.entropy)

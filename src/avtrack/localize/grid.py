@@ -25,6 +25,7 @@ Shapes: transfer functions ``(n_mics, n_freqs, n_candidates)``; means
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -125,6 +126,22 @@ class DirectionGrid:
             return False
         gaps = np.diff(np.r_[az, az[0] + 360.0])
         return bool(np.allclose(gaps, gaps[0], atol=1e-6))
+
+    @functools.cached_property
+    def azimuth_neighbours(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(prev, next, has_prev, has_next)``: index ``(D,)`` of each candidate's azimuth
+        neighbours at the same elevation (wrapping around on a circular grid) and 0/1 floats
+        saying whether the neighbour exists."""
+        a = np.arange(self.n_azimuths)
+        base = self.n_azimuths * np.arange(self.n_elevations)[:, None]
+        prev = base + (a - 1) % self.n_azimuths
+        nxt = base + (a + 1) % self.n_azimuths
+        has_prev = np.ones(prev.shape)
+        has_next = np.ones(nxt.shape)
+        if not self.circular:
+            has_prev[:, 0] = 0.0
+            has_next[:, -1] = 0.0
+        return prev.ravel(), nxt.ravel(), has_prev.ravel(), has_next.ravel()
 
     def nearest(self, azimuth_deg: np.ndarray | float, elevation_deg=0.0) -> np.ndarray:
         """Index of the candidate nearest (great circle) to each given direction."""

@@ -31,7 +31,7 @@ import numpy as np
 
 from avtrack.audio.dprtf import DPRTFConfig
 from avtrack.localize.base import register_localizer
-from avtrack.localize.cgmm_eg import CGMMLocalizer, _positive
+from avtrack.localize.cgmm_eg import CGMMLocalizer, _count, _positive
 
 
 def rem_update(weights: np.ndarray, ratios: np.ndarray, rate: float) -> np.ndarray:
@@ -65,6 +65,8 @@ class REMConfig:
         Relaxation to uniform in frames without features.
     smoothing : float
         Spatial smoothing coefficient (0: none, as in the thesis's baselines).
+    min_features : int
+        Frames with fewer features relax to uniform (see :class:`~.cgmm_eg.EGConfig`).
     dprtf : DPRTFConfig
         Feature extraction.
     """
@@ -73,9 +75,11 @@ class REMConfig:
     rate: float = 0.065
     silence_rate: float = 0.065
     smoothing: float = 0.0
+    min_features: int = 20
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
 
     def __post_init__(self) -> None:
+        _count("REMConfig", "min_features", self.min_features)
         _positive("REMConfig", "variance", self.variance)
         for name in ("rate", "silence_rate", "smoothing"):
             _positive("REMConfig", name, getattr(self, name), allow_zero=True)
@@ -101,7 +105,7 @@ class DPRTFREM(CGMMLocalizer):
     """DPRTF-REM: DP-RTF features, CGMM, recursive EM weights (thesis §5.5.1 baseline)."""
 
     Config: ClassVar[type] = REMConfig
-    default_threshold: ClassVar[float] = 0.04
+    default_threshold: ClassVar[float] = 0.05
 
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
         return rem_update(weights, ratios, self.config.rate)
@@ -112,7 +116,7 @@ class PRPREM(CGMMLocalizer):
     """PRP-REM: pair-wise relative phase features, CGMM, recursive EM (thesis §5.5.1)."""
 
     Config: ClassVar[type] = PRPREMConfig
-    default_threshold: ClassVar[float] = 0.04
+    default_threshold: ClassVar[float] = 0.05
 
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
         return rem_update(weights, ratios, self.config.rate)

@@ -85,7 +85,7 @@ class SRPPHAT(Localizer):
     """SRP-PHAT with recursive smoothing over frames (see the module docstring)."""
 
     Config: ClassVar[type] = SRPConfig
-    default_threshold: ClassVar[float] = 0.1
+    default_threshold: ClassVar[float] = 0.3
 
     def _setup(self) -> None:
         freqs = self.stft_config.freqs_hz
