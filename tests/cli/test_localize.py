@@ -113,6 +113,14 @@ def test_truth_roc_plot_and_config(wav, tmp_path, capsys):
     assert not list(tmp_path.glob(".*.tmp"))
 
 
+def test_elevation_grid(wav, tmp_path):
+    out = tmp_path / "d.csv"
+    rc = main(wav, "--array", "nao4", "-o", out, "--elevations=-20,0,20", "--grid-step", "10")
+    assert rc == 0
+    t = read_doa_csv(out)
+    assert set(np.unique(t.elevation_deg)) <= {-20.0, 0.0, 20.0} and len(t) > 0
+
+
 def test_resamples_other_rates_with_a_notice(tmp_path, signal, capsys):
     import scipy.signal
 
@@ -153,6 +161,7 @@ def test_bad_audio_is_a_clear_error_without_output(tmp_path, signal, capsys, mak
         (["--array", "nao4", "--max-peaks", "0"], "--max-peaks must be >= 1"),
         (["--array", "nao4", "--grid-step", "7"], "step_deg must divide 360"),
         (["--array", "nao4", "--roc"], "--roc needs --truth"),
+        (["--array", "nao4", "--elevations", "0,x"], "--elevations: expected comma-separated"),
     ],
 )
 def test_bad_options(wav, tmp_path, capsys, args, message):

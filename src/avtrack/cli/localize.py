@@ -110,6 +110,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="DEG",
         help="azimuth spacing of the candidate directions (default 5)",
     )
+    p.add_argument(
+        "--elevations",
+        metavar="E1,E2,...",
+        help="candidate elevations in degrees, e.g. --elevations=-20,0,20 (default: 0)",
+    )
     p.add_argument("--config", type=Path, metavar="FILE.yaml", help="the method's parameters")
     p.add_argument(
         "--block-size",
@@ -228,6 +233,24 @@ def load_method_config(method: str, path: Path | None) -> Any:
         raise InputError(str(exc), path) from None
 
 
+def make_grid(step_deg: float, elevations: str | None) -> DirectionGrid:
+    """The candidate grid of ``--grid-step`` and ``--elevations``."""
+    try:
+        base = DirectionGrid.azimuths(step_deg)
+    except ValueError as exc:
+        raise InputError(f"--grid-step: {exc}") from None
+    if elevations is None:
+        return base
+    try:
+        values = sorted({float(v) for v in elevations.split(",") if v.strip()})
+        return DirectionGrid(base.azimuth_values, values)
+    except ValueError as exc:
+        raise InputError(
+            f"--elevations: expected comma-separated degrees in [-90, 90], got "
+            f"{elevations!r} ({exc})"
+        ) from None
+
+
 # -- output ------------------------------------------------------------------------------
 def plot_heatmap(
     path: Path,
@@ -270,6 +293,7 @@ def plot_heatmap(
         )
     if truth is not None and len(truth):
         ax.legend(loc="upper right", fontsize=7, markerscale=8)
+    ax.set_xlim(t0, t1)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("azimuth (deg)")
     ax.set_title(title)
@@ -289,10 +313,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--block-size must be >= 1, got {args.block_size}")
     if args.roc and args.truth is None:
         raise InputError("--roc needs --truth GT.csv")
-    try:
-        grid = DirectionGrid.azimuths(args.grid_step)
-    except ValueError as exc:
-        raise InputError(f"--grid-step: {exc}") from None
+    grid = make_grid(args.grid_step, args.elevations)
     truth = read_doa_csv(args.truth) if args.truth is not None else None
     x = read_array_audio(args.audio, array, args.allow_clipping, args.quiet)
     try:
@@ -311,6 +332,13 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None:
         plot_heatmap(args.plot, heat, grid, f"{args.method}: {args.audio.name}", truth)
     duration = x.shape[1] / FS
+    if args.verbose:
+        print(
+            f"{args.method} on array {array.name!r} ({array.kind}, {array.n_mics} mics), "
+            f"{grid.size} candidates; {config}"
+        )
+        with_obs = np.mean(heat.n_observations > 0) if len(heat) else 0.0
+        print(f"frames with features: {100 * with_obs:.1f} %")
     if not args.quiet:
         print(
             f"localized {len(heat)} frames ({duration:.1f} s) with {args.method}: "
