@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from avtrack.cli import main as cli_main
@@ -133,3 +134,33 @@ def test_bad_benchmark_is_rejected_by_argparse(files, capsys):
         cli_main.main(["eval", "mot", str(gt), str(res), "--benchmark", "MOT99"])
     assert exc.value.code == 2
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_eval_doa_by_hand(tmp_path, capsys):
+    import json as _json
+
+    from avtrack.io.doa import DOATable, write_doa_csv
+
+    t = np.arange(4) * 0.008
+    truth = DOATable(np.arange(4), t, np.ones(4, int), np.full(4, 10.0), np.zeros(4),
+                     np.ones(4), np.array([True, True, True, False]))  # fmt: skip
+    # frames 0-1: right within 2 degrees; frame 2: 40 degrees off (miss + false alarm);
+    # frame 3: nobody speaks, an estimate there is a false alarm
+    est = DOATable(np.arange(4), t, -np.ones(4, int), np.array([12.0, 8.0, 50.0, 0.0]),
+                   np.zeros(4), np.ones(4), np.ones(4, bool))  # fmt: skip
+    write_doa_csv(tmp_path / "gt.csv", truth)
+    write_doa_csv(tmp_path / "est.csv", est)
+    out = tmp_path / "s.json"
+    assert cli_main.main(["eval", "doa", str(tmp_path / "gt.csv"), str(tmp_path / "est.csv"),
+                 "--json", str(out)]) == 0  # fmt: skip
+    scores = _json.loads(out.read_text())["scores"]
+    assert scores["actual"] == 3 and scores["success"] == 2
+    assert scores["MD%"] == pytest.approx(100 / 3)
+    assert scores["MAE"] == pytest.approx(2.0)
+    assert "MD% 33.33" in capsys.readouterr().out
+
+
+def test_eval_doa_bad_input(tmp_path, capsys):
+    (tmp_path / "gt.csv").write_text("frame,time_s\n")
+    assert cli_main.main(["eval", "doa", str(tmp_path / "gt.csv"), str(tmp_path / "gt.csv")]) == 2
+    assert "gt.csv" in capsys.readouterr().err

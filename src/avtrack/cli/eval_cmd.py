@@ -1,6 +1,7 @@
 """``avtrack eval``: score a result against ground truth.
 
-Tasks (each its own sub-command): ``mot`` — MOTChallenge visual tracking (MOTA, IDF1, HOTA ...).
+Tasks (each its own sub-command): ``mot`` — MOTChallenge visual tracking (MOTA, IDF1, HOTA ...);
+``doa`` — frame-wise speaker localization (thesis §5.5.1: MD and FA rates, MAE).
 """
 
 from __future__ import annotations
@@ -79,6 +80,74 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     mot.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
     add_common(mot)
     mot.set_defaults(func=run_mot)
+
+    doa = tasks.add_parser(
+        "doa",
+        help="speaker localization scores: miss-detection and false-alarm rates, MAE",
+        description=(
+            "Score frame-wise DOA estimates against ground truth as thesis §5.5.1 does: per\n"
+            "frame, estimates and active speakers are matched greedily; a match within 15\n"
+            "degrees is a success (MAE over successes), unmatched speakers are misses,\n"
+            "unmatched estimates false alarms. Both files are DOA CSV\n"
+            "(frame,time_s,id,azimuth_deg,elevation_deg,weight,active); frames are aligned by\n"
+            "time."
+        ),
+        epilog=DOA_EXAMPLES,
+        formatter_class=HelpFormatter,
+    )
+    doa.add_argument("gt", type=Path, metavar="GT.csv", help="ground truth (gt/doa.csv)")
+    doa.add_argument("estimates", type=Path, metavar="DOA.csv", help="localizer output")
+    doa.add_argument(
+        "--threshold",
+        type=float,
+        metavar="T",
+        help="use the estimates with weight >= T (default: the rows with active = 1)",
+    )
+    doa.add_argument(
+        "--roc", action="store_true", help="sweep the threshold and report the best point"
+    )
+    doa.add_argument(
+        "--success-deg", type=float, default=15.0, metavar="DEG", help="default: %(default)s"
+    )
+    doa.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
+    add_common(doa)
+    doa.set_defaults(func=run_doa)
+
+
+DOA_EXAMPLES = """\
+examples:
+  avtrack localize scene/audio.wav --array scene/array.json -o doa.csv --floor 0.005
+  avtrack eval doa scene/gt/doa.csv doa.csv
+  avtrack eval doa scene/gt/doa.csv doa.csv --roc --json scores.json
+"""
+
+
+def run_doa(args: argparse.Namespace) -> int:
+    from avtrack.io.doa import read_doa_csv
+    from avtrack.metrics.doa import evaluate_doa, roc_sweep
+
+    if not args.success_deg > 0:
+        raise InputError(f"--success-deg must be > 0, got {args.success_deg}")
+    truth = read_doa_csv(args.gt)
+    est = read_doa_csv(args.estimates)
+    if args.roc:
+        threshold, scores = roc_sweep(est, truth, success_deg=args.success_deg).best
+    else:
+        threshold = args.threshold
+        scores = evaluate_doa(est, truth, success_deg=args.success_deg, threshold=threshold)
+    d = scores.as_dict()
+    if args.json is not None:
+        with atomic_write(args.json) as fh:
+            record = {"gt": str(args.gt), "estimates": str(args.estimates),
+                      "threshold": threshold, "scores": d}  # fmt: skip
+            json.dump(record, fh, indent=2)
+            fh.write("\n")
+    if not args.quiet:
+        which = "active rows" if threshold is None else f"weight >= {threshold:.4g}"
+        print(f"DOA scores of {args.estimates} against {args.gt} ({which}):")
+        print("  " + "  ".join(f"{k} {v:.2f}" if isinstance(v, float) else f"{k} {v}"
+                               for k, v in d.items()))  # fmt: skip
+    return 0
 
 
 def run_mot(args: argparse.Namespace) -> int:
