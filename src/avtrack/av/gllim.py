@@ -74,7 +74,11 @@ def _spd_logdet_inv(cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _log_gauss(r: np.ndarray, logdet: np.ndarray, inv: np.ndarray) -> np.ndarray:
     """log N(r; 0, cov) for residuals ``r (..., n)`` with ``log|cov|`` and ``cov⁻¹``."""
-    maha = np.einsum("...i,...ij,...j->...", r, inv, r)
+    if r.ndim == 3 and inv.ndim == 3:  # (M, R, n) residuals, one covariance per component
+        y = np.matmul(r.transpose(1, 0, 2), inv).transpose(1, 0, 2)  # cov⁻¹ r, (M, R, n)
+    else:
+        y = np.einsum("...ij,...j->...i", inv, r)
+    maha = np.sum(y * r, axis=-1)  # rᵀ cov⁻¹ r
     return -0.5 * (maha + logdet + r.shape[-1] * _LOG_2PI)
 
 
@@ -325,7 +329,7 @@ def m_step(
     d = g.shape[1]
     var_g = max(float(np.mean(np.var(g, axis=0))), 1e-300)
     if covariance_type == "full":
-        sigma = np.einsum("rmd,rme->rde", w * res, res) / n_r[:, None, None]
+        sigma = np.matmul(np.swapaxes(w * res, 1, 2), res) / n_r[:, None, None]
     else:
         diag = np.einsum("rmd,rmd->rd", w * res, res) / n_r[:, None]
         if covariance_type == "iso":

@@ -319,7 +319,8 @@ class OVBTracker:
         init = None
         if last.appearance is not None:
             init = np.stack([last.appearance[b.indices[-1]] for b in born])
-        self.engine.add_targets(ids, mu, gamma, [init])
+        # the box model gets the appearances; any other model of a subclass (VAVIT) none
+        self.engine.add_targets(ids, mu, gamma, [init] + [None] * (len(self.engine.models) - 1))
         self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
         self.invisible_run = np.concatenate([self.invisible_run, np.zeros(k, dtype=np.int64)])
         self.mass_history = np.vstack([self.mass_history, np.ones((k, cfg.visibility_window))])
