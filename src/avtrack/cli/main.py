@@ -15,7 +15,7 @@ from avtrack.cli.base import HelpFormatter
 from avtrack.errors import InputError
 
 #: Modules under ``avtrack.cli`` that define ``register(subparsers)``, in help order.
-COMMAND_MODULES = ("demo", "track_mot", "simulate", "localize", "robot_sim", "eval_cmd")
+COMMAND_MODULES = ("demo", "track_mot", "simulate", "localize", "robot_sim", "eval_cmd", "bench")
 
 
 def build_parser() -> argparse.ArgumentParser:
