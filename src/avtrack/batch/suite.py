@@ -58,8 +58,11 @@ BUILTIN_SUITES: dict[str, dict] = {
                 "inputs": ["walkout:0:10", "walkout:1:10", "meeting:0:10"],
                 "params": {"birth_frames": [2, 3]},
             },
-            {"task": "localize", "inputs": ["locata-like:0:10"],
-             "params": {"method": ["dprtf-eg", "srp-phat"]}},  # fmt: skip
+            {
+                "task": "localize",
+                "inputs": ["locata-like:0:10"],
+                "params": {"method": ["dprtf-eg", "srp-phat"]},
+            },
         ],
     },
 }
@@ -102,7 +105,9 @@ def expand_suite(raw: Any, path: str | Path | None = None) -> tuple[str, list[di
             raise InputError(f"{field}.{extra[0]}: unknown field", path)
         task = entry.get("task")
         if task not in TASKS:
-            raise InputError(f"{field}.task: expected one of {', '.join(TASKS)}, got {task!r}", path)
+            raise InputError(
+                f"{field}.task: expected one of {', '.join(TASKS)}, got {task!r}", path
+            )
         inputs = entry.get("inputs")
         if not isinstance(inputs, list) or not inputs:
             raise InputError(f"{field}.inputs: expected a non-empty list", path)
@@ -113,9 +118,8 @@ def expand_suite(raw: Any, path: str | Path | None = None) -> tuple[str, list[di
         for j, spec in enumerate(inputs):
             resolved = _resolve_input(spec, base, path, f"{field}.inputs[{j}]")
             for combo in itertools.product(*grid.values()):
-                items.append(
-                    {"task": task, "input": resolved, "params": dict(zip(grid, combo, strict=True))}
-                )
+                params_i = dict(zip(grid, combo, strict=True))
+                items.append({"task": task, "input": resolved, "params": params_i})
     return str(name), items
 
 
@@ -131,7 +135,7 @@ def _resolve_input(spec: Any, base: Path, path, field: str) -> str:
             seed = int(parts[1]) if len(parts) > 1 else 0
             dur = float(parts[2]) if len(parts) > 2 else 20.0
         except ValueError:
-            raise InputError(f"{field}: expected NAME:SEED[:SECONDS], got {spec!r}", path) from None
+            seed, dur = -1, -1.0
         if len(parts) > 3 or seed < 0 or dur <= 0:
             raise InputError(f"{field}: expected NAME:SEED[:SECONDS], got {spec!r}", path)
         return f"{head}:{seed}:{dur:g}"
