@@ -12,7 +12,7 @@ and :meth:`remove_targets`.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -186,6 +186,8 @@ class VEMEngine:
 
     def step(
         self, observations: Sequence[Any], lam: np.ndarray, control: np.ndarray | None = None,
+        transition: np.ndarray | None = None,
+        constrain: Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> FrameInference:
         r"""Run one frame of VEM and update the targets' states in place.
 
@@ -197,6 +199,13 @@ class VEMEngine:
             Dynamics covariance :math:`\Lambda_{tn}` for this frame, or its diagonal.
         control : ndarray (N, d), optional
             Additive control term of the prediction (ego-motion, thesis eq. 3.34).
+        transition : ndarray (N, d, d), optional
+            Per-target dynamics matrices :math:`D_{t-1,n}` for this frame, replacing
+            :attr:`transition` (state-dependent linearised dynamics, e.g. the unit-direction
+            model of thesis eq. 5.27).
+        constrain : callable ``mu (N, d) -> mu (N, d)``, optional
+            Applied to the posterior means after every E-S step (e.g. renormalising a unit
+            direction vector, thesis §5.4.1).
 
         Returns
         -------
@@ -207,6 +216,8 @@ class VEMEngine:
                              f"got {len(observations)}")
         n, d = self.n_targets, self.dim
         lam = np.asarray(lam, dtype=float)
+        if transition is not None or constrain is not None:  # general path only
+            return self._step_general(observations, lam, control, transition, constrain)
         if lam.shape == (n, d):  # diagonal Λ
             if self._cv is not None:
                 states = self._cached_cv_states()
@@ -220,8 +231,32 @@ class VEMEngine:
                 lam_states = cv_split(np.zeros((n, d)), lam, self._cv[0])
                 return self._step_cv(observations, states,
                                      lam_states._replace(mu_p=None, mu_v=None), control)
-        dgd = symmetrize(self.transition @ self.gamma @ self.transition.T)  # D Γ_{t-1} Dᵀ
-        mu_pred, gamma_pred = predict(self.mu, self.gamma, self.transition, lam, control)
+        return self._step_general(observations, lam, control, None, None)
+
+    def _step_general(
+        self, observations: Sequence[Any], lam: np.ndarray, control: np.ndarray | None,
+        transition: np.ndarray | None,
+        constrain: Callable[[np.ndarray], np.ndarray] | None,
+    ) -> FrameInference:
+        """:meth:`step` with full covariances, optionally per-target transitions and a
+        constraint on the means."""
+        n, d = self.n_targets, self.dim
+        if lam.shape == (n, d):  # diagonal Λ
+            lam = lam[:, :, None] * np.eye(d)
+        lam = lam.reshape(n, d, d)
+        if transition is None:
+            dgd = symmetrize(self.transition @ self.gamma @ self.transition.T)  # D Γ_{t-1} Dᵀ
+            mu_pred, gamma_pred = predict(self.mu, self.gamma, self.transition, lam, control)
+        else:
+            tr = np.asarray(transition, dtype=float)
+            if tr.shape != (n, d, d):
+                raise ValueError(f"transition must have shape ({n}, {d}, {d}) (one D per "
+                                 f"target), got {tr.shape}")
+            dgd = symmetrize(tr @ self.gamma @ np.swapaxes(tr, 1, 2))  # D_n Γ_{t-1,n} D_nᵀ
+            mu_pred = np.einsum("nij,nj->ni", tr, self.mu)  # D_n μ_{t-1,n}
+            if control is not None:
+                mu_pred = mu_pred + control
+            gamma_pred = symmetrize(dgd + lam)  # D_n Γ D_nᵀ + Λ, eq. 2.21
         prec_pred = symmetrize(np.linalg.inv(gamma_pred))  # term #3 of eq. 4.26
         mu, gamma = mu_pred, gamma_pred  # E-Z initialisation, thesis §4.6.1
         log_priors = [np.full(n + 1, -np.log(n + 1))] * len(self.models)  # η = 1/(N+1)
@@ -240,6 +275,8 @@ class VEMEngine:
                 info += j
                 vec += h
             mu, gamma = e_s_step(mu_pred, prec_pred, info, vec)  # E-S step, eqs. 2.23–2.24
+            if constrain is not None:
+                mu = constrain(mu)
             mass = [m.assigned_mass(r) for m, r in zip(self.models, resps, strict=True)]
             if self.update_priors:  # M step, eq. 3.29
                 log_priors = [m_step_priors(a) for a in mass]
