@@ -1,0 +1,196 @@
+"""AV-LPF-SMC-PHD vs AV-NPF-SMC-PHD on the shared AV16.3 sequences (seed 004 Tables 1–2).
+
+Both filters (:mod:`avtrack.phd`) run on the same measurements, in the same process, with BLAS
+limited to one thread, on the six sequence / camera pairs of ``../shared/data/av16.3``
+(sequences 24 and 45, cameras 1–3), for ``--seeds`` seeds each (seed 004: 10):
+
+- audio: the DOA measurements ``Z_doa`` of the files, projected into the image as DOA lines;
+- visual: the real face detections for sequence 45 camera 1; for the other five pairs, face
+  detections synthesised from ``posGT`` by :class:`~avtrack.phd.SyntheticFaceDetector`
+  (misses in bursts, noise and clutter measured on the real detector), drawn anew for every
+  seed. For a given seed both filters see identical measurements.
+
+Scores: OSPA (order 2, cut-off 50 px, Euclidean in pixels) against ``posGT`` on every frame,
+averaged over the frames of a sequence, then over the seeds (Table 1); the mean effective
+sample size, the number of resamplings and the running time of the filter steps (Table 2, for
+sequence 45 camera 1 as in the seed, plus the means over the six pairs).
+
+Optionally (``--vem``) a third row: the visual VEM tracker (:class:`avtrack.tracking.ovbt.
+OVBTracker`, thesis §3.1) on the same visual measurements, as fixed-size face boxes (no audio).
+
+Usage::
+
+    python benchmarks/bench_phd.py                      # 10 seeds, both filters
+    python benchmarks/bench_phd.py --seeds 2 --pairs 45:1 24:1
+    python benchmarks/bench_phd.py --flow-weights none  # weights without eq. 22's flow factor
+    python benchmarks/bench_phd.py --vem
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one core, before NumPy loads BLAS
+
+import argparse  # noqa: E402
+import platform  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from avtrack.io.av163 import load_av163  # noqa: E402
+from avtrack.metrics.ospa import ospa_sequence  # noqa: E402
+from avtrack.phd import PHD_FILTERS, PHDConfig  # noqa: E402
+from avtrack.phd.likelihood import av163_frames, av163_truth, av163_visual  # noqa: E402
+
+REPO_ROOT = Path(__file__).resolve().parents[1]
+PAIRS = [(24, 1), (24, 2), (24, 3), (45, 1), (45, 2), (45, 3)]
+CUTOFF = 50.0
+ORDER = 2
+FACE_BOX = (18.0, 25.0)  # median face box of seq45 cam1 (w, h), for the VEM row
+
+
+def run_vem(visual: list[np.ndarray], n_frames: int) -> tuple[list[np.ndarray], float]:
+    """The OVBT visual VEM tracker on fixed-size boxes around the visual points."""
+    from avtrack.tracking.ovbt import OVBTracker
+
+    w, h = FACE_BOX
+    tracker = OVBTracker(image_size=(360, 288))
+    out = []
+    t0 = time.perf_counter()
+    for k in range(n_frames):
+        z = visual[k]
+        boxes = (
+            np.column_stack(
+                [z[:, 0] - w / 2, z[:, 1] - 0.8 * h, np.full(len(z), w), np.full(len(z), h)]
+            )
+            if len(z)
+            else np.zeros((0, 4))
+        )
+        b = np.asarray(tracker.step(boxes, np.ones(len(z))).boxes, dtype=float).reshape(-1, 4)
+        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + 0.8 * b[:, 3]]))
+    return out, time.perf_counter() - t0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument(
+        "--data",
+        type=Path,
+        default=REPO_ROOT / ".." / "shared" / "data" / "av16.3",
+        help="folder of the AV16.3 MAT files",
+    )
+    ap.add_argument("--seeds", type=int, default=10, help="seeds per sequence (default 10)")
+    ap.add_argument(
+        "--pairs",
+        nargs="*",
+        default=None,
+        metavar="SEQ:CAM",
+        help="sequence:camera pairs (default: all six)",
+    )
+    ap.add_argument("--filters", default="lpf,npf", help="comma-separated filter names")
+    ap.add_argument(
+        "--flow-weights",
+        default="transition",
+        choices=("transition", "gaussian", "none"),
+        help="PHDConfig.flow_weights, for both filters (default: eq. 22)",
+    )
+    ap.add_argument("--vem", action="store_true", help="add the visual VEM (OVBT) row")
+    args = ap.parse_args(argv)
+    if not args.data.is_dir():
+        print(f"bench_phd: AV16.3 folder not found: {args.data}", file=sys.stderr)
+        return 2
+    pairs = PAIRS if not args.pairs else [tuple(map(int, p.split(":"))) for p in args.pairs]
+    names = args.filters.split(",")
+    config = PHDConfig(flow_weights=args.flow_weights)
+
+    # results[name][(seq, cam)] = list of (ospa, ess, resamplings, time) per seed
+    results: dict[str, dict[tuple[int, int], list[tuple[float, ...]]]] = {
+        n: {p: [] for p in pairs} for n in [*names, *(["vem"] if args.vem else [])]
+    }
+    sources = {}
+    for seq_no, cam in pairs:
+        seq = load_av163(args.data, seq_no, cam)
+        truth = av163_truth(seq)
+        for s in range(args.seeds):
+            visual, sources[seq_no, cam] = av163_visual(
+                args.data, seq, rng=np.random.default_rng([s, seq_no, cam])
+            )
+            frames = av163_frames(seq, visual, config.sigma_audio, config.gate)
+            for name in names:
+                res = PHD_FILTERS[name](config, seed=s).run(frames)
+                o = ospa_sequence(res.positions(), truth, CUTOFF, ORDER)[:, 0].mean()
+                results[name][seq_no, cam].append((o, res.mean_ess, res.n_resamplings, res.time_s))
+            if args.vem and (s == 0 or sources[seq_no, cam] == "synthetic"):
+                pos, t = run_vem(visual, seq.n_frames)
+                o = ospa_sequence(pos, truth, CUTOFF, ORDER)[:, 0].mean()
+                results["vem"][seq_no, cam].append((o, np.nan, np.nan, t))
+            print(
+                f"# {seq_no} ({cam}) seed {s}: "
+                + ", ".join(
+                    f"{n} {results[n][seq_no, cam][-1][0]:.2f}"
+                    for n in results
+                    if results[n][seq_no, cam]
+                ),
+                file=sys.stderr,
+                flush=True,
+            )
+
+    label = {"lpf": "LPF", "npf": "NPF", "vem": "VEM (OVBT, visual)"}
+    cols = list(results)
+    print(
+        f"Machine: {platform.processor() or platform.machine()}, Python "
+        f"{platform.python_version()}, NumPy {np.__version__}, one BLAS thread; "
+        f"{args.seeds} seeds; OSPA order {ORDER}, cut-off {CUTOFF:g} px; "
+        f"flow_weights={config.flow_weights!r}\n"
+    )
+    print("Table 1 — OSPA (px), mean over frames and seeds\n")
+    print("| Seq (Cam) | visual | " + " | ".join(label[c] for c in cols) + " |")
+    print("|---|---|" + "---|" * len(cols))
+    means = {c: [] for c in cols}
+    for p in pairs:
+        row = []
+        for c in cols:
+            v = np.mean([r[0] for r in results[c][p]])
+            means[c].append(v)
+            row.append(f"{v:.2f}")
+        print(f"| {p[0]} ({p[1]}) | {sources[p]} | " + " | ".join(row) + " |")
+    print("| Avg. OSPA | | " + " | ".join(f"{np.mean(means[c]):.2f}" for c in cols) + " |")
+    if "lpf" in cols and "npf" in cols:
+        print(f"\nLPF / NPF average OSPA: {np.mean(means['lpf']) / np.mean(means['npf']):.3f}")
+
+    print("\nTable 2 — ESS, resamplings, running time (s), mean over seeds\n")
+    print("| Filter | pair | ESS | Resampling | Time (s) | frames |")
+    print("|---|---|---|---|---|---|")
+    n_frames = {p: load_av163(args.data, *p).n_frames for p in pairs}
+    for c in [c for c in cols if c != "vem"]:
+        for p in pairs:
+            if p != (45, 1):
+                continue
+            r = np.array(results[c][p])
+            print(
+                f"| {label[c]} | 45 (1) | {r[:, 1].mean():.1f} | {r[:, 2].mean():.1f} | "
+                f"{r[:, 3].mean():.2f} | {n_frames[p]} |"
+            )
+        r = np.array([x for p in pairs for x in results[c][p]])
+        print(
+            f"| {label[c]} | mean of {len(pairs)} | {r[:, 1].mean():.1f} | "
+            f"{r[:, 2].mean():.1f} | {r[:, 3].mean():.2f} | "
+            f"{np.mean(list(n_frames.values())):.0f} |"
+        )
+    if "lpf" in cols and "npf" in cols:
+        t_l = np.mean([x[3] for p in pairs for x in results["lpf"][p]])
+        t_n = np.mean([x[3] for p in pairs for x in results["npf"][p]])
+        print(f"\nLPF / NPF running time (all pairs): {t_l / t_n:.3f}")
+        for p in pairs:
+            if p[0] == 45:
+                t = np.mean([x[3] for x in results["lpf"][p]])
+                print(f"LPF time, sequence 45 camera {p[1]} ({n_frames[p]} frames): {t:.2f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,93 @@
+"""CLI contract of ``avtrack track-phd``."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import avtrack.cli.main as cli_main
+from tests.io.test_av163 import write_av163
+
+
+@pytest.fixture
+def main(monkeypatch):
+    if "track_phd" not in cli_main.COMMAND_MODULES:
+        monkeypatch.setattr(cli_main, "COMMAND_MODULES", (*cli_main.COMMAND_MODULES, "track_phd"))
+    return cli_main.main
+
+
+@pytest.fixture
+def small(tmp_path):
+    return write_av163(tmp_path / "av", seq=7, cam=2, n_frames=30)
+
+
+def read_tracks(path):
+    lines = path.read_text().splitlines()
+    assert lines[0] == "frame,id,x,y"
+    return np.array([[float(v) for v in ln.split(",")] for ln in lines[1:]]).reshape(-1, 4)
+
+
+@pytest.mark.parametrize("name", ["lpf", "npf"])
+def test_writes_tracks(main, small, tmp_path, capsys, name):
+    out = tmp_path / "res" / "tracks.csv"
+    rc = main(["track-phd", str(small), "--seq", "7", "--cam", "2", "--filter", name,
+               "--seed", "1", "-o", str(out)])  # fmt: skip
+    assert rc == 0
+    rows = read_tracks(out)
+    assert rows.shape[1] == 4 and np.all((rows[:, 0] >= 1) & (rows[:, 0] <= 30))
+    msg = capsys.readouterr().out
+    assert f"{name}: seq 7 cam 2, 30 frames, visual synthetic; OSPA" in msg
+    assert "p=2, c=50" in msg
+
+
+def test_plot_and_config(main, small, tmp_path):
+    cfg = tmp_path / "phd.yaml"
+    cfg.write_text("particles_per_target: 20\nflow_weights: none\n")
+    out, fig = tmp_path / "t.csv", tmp_path / "t.png"
+    rc = main(["track-phd", str(small), "--seq", "7", "--cam", "2", "-o", str(out),
+               "--plot", str(fig), "--config", str(cfg), "-q"])  # fmt: skip
+    assert rc == 0 and out.is_file() and fig.stat().st_size > 1000
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--seq", "8", "--cam", "2"], "data_av_seq8_cam2.mat: file not found"),
+        (["--seq", "7", "--cam", "2", "--visual", "faces"], "face_seq7_cam2.mat: file not found"),
+        (["--seq", "0", "--cam", "2"], "--seq must be a positive integer"),
+    ],
+)
+def test_bad_input_gives_one_line_errors(main, small, tmp_path, capsys, args, message):
+    out = tmp_path / "t.csv"
+    assert main(["track-phd", str(small), *args, "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err
+    assert not out.exists()
+
+
+def test_missing_folder_and_bad_config(main, tmp_path, small, capsys):
+    out = tmp_path / "t.csv"
+    assert main(["track-phd", str(tmp_path / "nope"), "--seq", "7", "--cam", "2", "-o",
+                 str(out)]) == 2  # fmt: skip
+    assert "nope: AV16.3 folder not found" in capsys.readouterr().err
+    cfg = tmp_path / "bad.yaml"
+    cfg.write_text("sigma: 3\n")
+    assert main(["track-phd", str(small), "--seq", "7", "--cam", "2", "-o", str(out),
+                 "--config", str(cfg)]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert "bad.yaml" in err and "unknown fields ['sigma']" in err
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_real_sequence(main, shared_data, tmp_path, capsys):
+    out = tmp_path / "t.csv"
+    rc = main(["track-phd", str(shared_data / "av16.3"), "--seq", "45", "--cam", "1", "-o",
+               str(out)])  # fmt: skip
+    assert rc == 0
+    rows = read_tracks(out)
+    assert set(np.unique(rows[:, 1])) <= set(range(1, 10_000)) | {-1}
+    msg = capsys.readouterr().out
+    assert "lpf: seq 45 cam 1, 1101 frames, visual faces" in msg
+    ospa = float(msg.split("OSPA ")[1].split(" px")[0])
+    assert ospa < 16.0
