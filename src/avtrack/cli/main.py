@@ -15,7 +15,17 @@ from avtrack.cli.base import HelpFormatter
 from avtrack.errors import InputError
 
 #: Modules under ``avtrack.cli`` that define ``register(subparsers)``, in help order.
-COMMAND_MODULES = ("demo", "track_mot", "simulate", "localize", "robot_sim", "eval_cmd", "bench")
+COMMAND_MODULES = (
+    "demo",
+    "track_mot",
+    "simulate",
+    "localize",
+    "track_audio",
+    "robot_sim",
+    "track_phd",
+    "eval_cmd",
+    "bench",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
