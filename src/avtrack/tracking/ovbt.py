@@ -194,7 +194,7 @@ class OVBTracker:
                 refs = self.model.references
                 app = np.zeros((0, app.shape[-1] if app.ndim == 2 else
                                 (0 if refs is None else refs.shape[1])))
-            app = app.reshape(m, -1)
+            app = app.reshape(m, app.shape[-1] if app.ndim == 2 else -1)  # (0, F) when m = 0
             if not np.all(np.isfinite(app)):
                 raise ValueError("appearance descriptors must be finite")
             app = self._appearance.normalize(app[keep])

@@ -95,6 +95,13 @@ class VAVITConfig:
         Each frame a person is not seen, their velocity mean is multiplied by this (1:
         constant-velocity coasting). Out of view, audio alone gives jumpy positions whose
         differences would otherwise turn into a velocity that carries the track away.
+    reid_log_ratio : float or None
+        A person born from a new sequence of detections whose appearance log-likelihood ratio
+        against a person not seen for ``reid_min_unseen`` frames (typically one who left the
+        field of view and came back in silence, so that audio could not follow them) exceeds
+        this is that person: the known identity moves to the new state. None: never.
+    reid_min_unseen : int
+        See ``reid_log_ratio``.
     diarization_threshold : float
         :math:`\\gamma` of eq. 4.34.
     """
@@ -110,6 +117,8 @@ class VAVITConfig:
     heard_threshold: float = 0.3
     out_of_view_death_frames: int = 250
     coast_velocity_decay: float = 0.9
+    reid_log_ratio: float | None = 2.0
+    reid_min_unseen: int = 10
     diarization_threshold: float = 0.4
 
     def __post_init__(self) -> None:
@@ -134,6 +143,11 @@ class VAVITConfig:
             raise ValueError(
                 f"VAVITConfig.out_of_view_death_frames must be an integer >= 1, got {v!r}"
             )
+        v = self.reid_min_unseen
+        if isinstance(v, bool) or not isinstance(v, int) or v < 1:
+            raise ValueError(f"VAVITConfig.reid_min_unseen must be an integer >= 1, got {v!r}")
+        if self.reid_log_ratio is not None and not np.isfinite(self.reid_log_ratio):
+            raise ValueError("VAVITConfig.reid_log_ratio must be finite or None")
         if self.audio_log_clutter is not None and not np.isfinite(self.audio_log_clutter):
             raise ValueError("VAVITConfig.audio_log_clutter must be finite or None")
 
@@ -284,7 +298,7 @@ class VAVITracker(OVBTracker):
         eng = self.engine
         n = eng.n_targets
         share = np.zeros(n)
-        prec = None
+        prec = np.zeros((n, 3, 2, 2)) if self.record_precisions else None
         k_t = int(bands.shape[0])
         if n:
             mu_prev, gamma_prev = eng.mu, eng.gamma
@@ -347,7 +361,6 @@ class VAVITracker(OVBTracker):
         born = eng.n_targets - n_before
         if born:
             share = np.concatenate([share, np.zeros(born)])
-            self.unseen_run = np.concatenate([self.unseen_run, np.zeros(born, dtype=np.int64)])
             if prec is not None:
                 prec = np.concatenate([prec, np.zeros((born, 3, 2, 2))])
         out = (self.p_visible > 0.5) & self._in_image(eng.mu)
@@ -365,6 +378,39 @@ class VAVITracker(OVBTracker):
     def _remove(self, keep: np.ndarray) -> None:
         super()._remove(keep)
         self.unseen_run = self.unseen_run[keep]
+
+    def _birth(self) -> None:
+        """Birth (§4.6.2), then re-identification of newborns with persons not seen lately."""
+        eng = self.engine
+        n_before = eng.n_targets
+        super()._birth()
+        born = eng.n_targets - n_before
+        if not born:
+            return
+        self.unseen_run = np.concatenate([self.unseen_run, np.zeros(born, dtype=np.int64)])
+        cfg = self.av_config
+        refs = self.model.references
+        if cfg.reid_log_ratio is None or refs is None or n_before == 0:
+            return
+        old = np.flatnonzero(self.unseen_run[:n_before] >= cfg.reid_min_unseen)
+        if old.size == 0:
+            return
+        new = np.arange(n_before, eng.n_targets)
+        score = self._appearance.log_ratio(refs[new], refs[old])  # log b(h_new; h_old) / u
+        mu, gamma = eng.mu.copy(), eng.gamma.copy()
+        keep = np.ones(eng.n_targets, dtype=bool)
+        while score.size and score.max() > cfg.reid_log_ratio:  # greedy, best pair first
+            i, j = np.unravel_index(int(np.argmax(score)), score.shape)
+            b, o = new[i], old[j]
+            mu[o], gamma[o] = mu[b], gamma[b]  # the known person, where the newborn is
+            self.p_visible[o], self.invisible_run[o], self.unseen_run[o] = 1.0, 0, 0
+            self.mass_history[o] = 1.0
+            keep[b] = False
+            score[i, :] = -np.inf
+            score[:, j] = -np.inf
+        if not keep.all():
+            eng.mu, eng.gamma = mu, gamma
+            self._remove(keep)
 
     def _precisions(
         self,

@@ -1,0 +1,311 @@
+"""``avtrack track-av``: audio-visual tracking and diarization of a scene directory (VAVIT)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.errors import InputError
+from avtrack.io.mot import write_mot
+from avtrack.io.rttm import write_rttm
+
+EXAMPLES = """\
+examples:
+  # simulate a meeting, then track and diarize it (the audio-to-image mapping is trained
+  # first on a simulated loudspeaker calibration of the scene's room, and saved in OUT_DIR)
+  avtrack simulate meeting -o scenes/meeting-1 --seed 1
+  avtrack track-av scenes/meeting-1 -o out/meeting-1
+
+  # reuse the mapping, partial field of view (the camera sees the central 40 % of the image),
+  # covariance figure
+  avtrack track-av scenes/meeting-1 -o out/pfov --mapping out/meeting-1/mapping.npz \\
+      --fov-fraction 0.4 --plot
+
+  # the visual-only tracker (OVBT) on the same detections
+  avtrack track-av scenes/meeting-1 -o out/visual --no-audio
+
+  # then score them
+  avtrack eval mot scenes/meeting-1/gt/gt.txt out/meeting-1/tracks.txt
+
+Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes, confidence = visibility
+probability), OUT_DIR/speech.rttm (who speaks when, speakers P<track id>; not with
+--no-audio), OUT_DIR/mapping.npz (when trained here), OUT_DIR/covariances.png (--plot).
+
+The --config YAML holds VAVITConfig fields, the visual ones under "visual:", e.g.:
+  sigma_scale: 4.0
+  diarization_threshold: 0.4
+  visual: {birth_frames: 3, death_frames: 20}
+"""
+
+
+def register(subparsers: argparse._SubParsersAction) -> None:
+    p = subparsers.add_parser(
+        "track-av",
+        help="audio-visual tracking and diarization of a scene directory (VAVIT)",
+        description=(
+            "Variational audio-visual tracking of several speakers (thesis ch. 4): head "
+            "detections and\nDP-RTF audio features mapped to the image by a learned GLLiM, "
+            "plus speaker diarization\n(eq. 4.34). SCENE_DIR is a scene directory as written "
+            "by 'avtrack simulate'."
+        ),
+        epilog=EXAMPLES,
+        formatter_class=HelpFormatter,
+    )
+    p.add_argument("scene", type=Path, metavar="SCENE_DIR", help="scene directory")
+    p.add_argument(
+        "-o",
+        "--output",
+        type=Path,
+        required=True,
+        metavar="OUT_DIR",
+        help="output directory (created; files written atomically)",
+    )
+    p.add_argument(
+        "--mapping",
+        type=Path,
+        metavar="MAP.npz",
+        help="trained audio-to-image mapping (default: train one on a simulated "
+        "calibration of the scene's room and save it as OUT_DIR/mapping.npz)",
+    )
+    p.add_argument(
+        "--calibration-positions",
+        type=int,
+        default=120,
+        metavar="N",
+        help="loudspeaker positions of that calibration (default 120)",
+    )
+    p.add_argument(
+        "--no-audio", action="store_true", help="visual-only tracking (OVBT); no diarization"
+    )
+    p.add_argument(
+        "--fov-fraction",
+        type=float,
+        default=1.0,
+        metavar="F",
+        help="the camera sees the central fraction F of the image width; detections "
+        "outside are dropped (partial field of view; default 1)",
+    )
+    p.add_argument(
+        "--threshold",
+        type=float,
+        metavar="GAMMA",
+        help="diarization threshold of eq. 4.34 (overrides --config)",
+    )
+    p.add_argument(
+        "--config", type=Path, metavar="FILE.yaml", help="tracker parameters (VAVITConfig fields)"
+    )
+    p.add_argument(
+        "--plot",
+        action="store_true",
+        help="write OUT_DIR/covariances.png: visual, audio and dynamics covariances "
+        "of the tracked persons in four frames (seed 003, Fig. 1)",
+    )
+    add_common(p)
+    p.set_defaults(func=run)
+
+
+def load_config(path: Path | None, threshold: float | None):
+    from avtrack.tracking.vavit import VAVITConfig
+
+    values: dict = {}
+    if path is not None:
+        if not path.is_file():
+            raise InputError("config file not found", path)
+        try:
+            loaded = yaml.safe_load(path.read_text())
+        except yaml.YAMLError as exc:
+            raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
+        if loaded is None:
+            loaded = {}
+        if not isinstance(loaded, dict):
+            raise InputError("expected a mapping of VAVITConfig fields", path)
+        values.update(loaded)
+    if threshold is not None:
+        values["diarization_threshold"] = threshold
+    try:
+        return VAVITConfig.from_dict(values)
+    except (TypeError, ValueError) as exc:
+        raise InputError(str(exc), path) from None
+
+
+def train_scene_mapping(scene, n_positions: int, verbose: bool):
+    """Calibrate the scene's room with a simulated loudspeaker and train the mapping."""
+    from avtrack.av.calibration import scene_setup, simulate_calibration, train_mapping
+
+    if scene.scenario is None:
+        raise InputError(
+            "no scene.yaml: cannot simulate a calibration of this scene's room; pass --mapping",
+            scene.path,
+        )
+    t0 = time.perf_counter()
+    setup = scene_setup(scene.scenario, scene.path / "scene.yaml")
+    calib = simulate_calibration(*setup, n_positions=n_positions, rng=0)
+    mapping = train_mapping(calib, 8, max_iter=50, meta={"scene": scene.path.name})
+    if verbose:
+        print(
+            f"trained the audio-to-image mapping on {len(calib)} calibration frames "
+            f"({time.perf_counter() - t0:.1f} s)",
+            file=sys.stderr,
+        )
+    return mapping
+
+
+def run(args: argparse.Namespace) -> int:
+    from avtrack.av.gllim import load_mapping, save_mapping
+    from avtrack.tracking.vavit import load_scene, track_scene
+
+    if not 0 < args.fov_fraction <= 1:
+        raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
+    if args.calibration_positions < 4:
+        raise InputError(f"--calibration-positions must be >= 4, got {args.calibration_positions}")
+    config = load_config(args.config, args.threshold)
+    scene = load_scene(args.scene)
+    out = args.output
+    if out.exists() and not out.is_dir():
+        raise InputError("output exists and is not a directory", out)
+    mapping = None
+    if not args.no_audio:
+        if args.mapping is not None:
+            mapping = load_mapping(args.mapping)
+        else:
+            mapping = train_scene_mapping(scene, args.calibration_positions, not args.quiet)
+            out.mkdir(parents=True, exist_ok=True)
+            save_mapping(out / "mapping.npz", mapping)
+    t0 = time.perf_counter()
+    try:
+        res = track_scene(
+            args.scene,
+            mapping,
+            config,
+            use_audio=not args.no_audio,
+            fov_fraction=args.fov_fraction,
+            record_precisions=args.plot,
+            scene=scene,
+        )
+    except InputError:
+        raise
+    except ValueError as exc:  # e.g. detections or features inconsistent with the scene
+        raise InputError(str(exc), args.scene) from None
+    elapsed = time.perf_counter() - t0
+    out.mkdir(parents=True, exist_ok=True)
+    write_mot(out / "tracks.txt", res.tracks)
+    if not args.no_audio:
+        write_rttm(out / "speech.rttm", res.speech)
+    if args.plot:
+        plot_covariances(res, out / "covariances.png", args.no_audio)
+    if not args.quiet:
+        n_ids = len(np.unique(res.tracks.ids))
+        speakers = len({s.speaker for s in res.speech})
+        print(
+            f"tracked {res.n_frames} frames ({res.timing['duration']:.1f} s): {n_ids} persons, "
+            f"{len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} speakers "
+            f"-> {out} ({elapsed:.1f} s, real-time factor "
+            f"{elapsed / max(res.timing['duration'], 1e-9):.2f})"
+        )
+    return 0
+
+
+def _ellipse(ax, centre, cov, color, n_std: float = 2.0) -> None:
+    """Draw the ``n_std`` ellipse of ``cov (2, 2)``."""
+    from matplotlib.patches import Ellipse
+
+    vals, vecs = np.linalg.eigh(cov)
+    if not np.all(np.isfinite(vals)):
+        return
+    angle = float(np.degrees(np.arctan2(vecs[1, 1], vecs[0, 1])))
+    w, h = 2 * n_std * np.sqrt(np.maximum(vals, 0.0))
+    ax.add_patch(Ellipse(centre, h, w, angle=angle, fill=False, color=color, lw=1.2))
+
+
+def _covariance(prec: np.ndarray) -> tuple[np.ndarray, bool]:
+    """Covariance of a 2x2 precision; for a precision on x only (audio mapped to x), a very
+    tall ellipse stands for "no vertical information"."""
+    if prec[1, 1] <= 1e-12 * max(prec[0, 0], 1e-300):
+        if prec[0, 0] <= 0:
+            return np.full((2, 2), np.nan), False
+        return np.diag([1.0 / prec[0, 0], 1e12]), True
+    try:
+        return np.linalg.inv(prec), True
+    except np.linalg.LinAlgError:
+        return np.full((2, 2), np.nan), False
+
+
+def plot_covariances(res, path: Path, no_audio: bool = False) -> None:
+    """Seed 003 Fig. 1: four frames; rows: tracked head boxes (green id: speaking, red:
+    silent), and the visual, audio and dynamics covariances (inverses of the precision terms
+    #1, #2, #3 of eq. 4.26) of each tracked person."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from avtrack.io.base import atomic_write
+
+    tracks = res.tracks
+    frames = np.unique(tracks.frames)
+    w, h = res.image_size
+    if frames.size:  # four frames spread over the sequence, after the first births
+        picks = frames[np.linspace(frames.size // 10, frames.size - 1, 4).round().astype(int)]
+    else:
+        picks = np.array([1, 1, 1, 1])
+    rows = ["tracks", "visual (#1)", "audio (#2)", "dynamics (#3)"]
+    fig, axes = plt.subplots(4, 4, figsize=(13, 10), squeeze=False)
+    palette = (
+        "tab:blue",
+        "tab:orange",
+        "tab:purple",
+        "tab:brown",
+        "tab:pink",
+        "tab:olive",
+        "tab:cyan",
+        "tab:gray",
+    )  # no green / red: those mark speaking / silent ids
+    for c, f in enumerate(picks):
+        sel = np.flatnonzero(tracks.frames == f)
+        for r, name in enumerate(rows):
+            ax = axes[r, c]
+            ax.set_xlim(0, w)
+            ax.set_ylim(h, 0)
+            ax.set_aspect("equal")
+            ax.set_xticks([])
+            ax.set_yticks([])
+            lo, hi = res.fov
+            if hi - lo < w:
+                ax.axvspan(0, lo, color="0.85")
+                ax.axvspan(hi, w, color="0.85")
+            if c == 0:
+                ax.set_ylabel(name)
+            if r == 0:
+                ax.set_title(f"frame {int(f)}")
+            for i in sel:
+                tid = int(tracks.ids[i])
+                col = palette[tid % len(palette)]
+                box = tracks.boxes[i]
+                centre = (box[0] + box[2] / 2, box[1] + box[3] / 2)
+                if r == 0:
+                    ax.add_patch(plt.Rectangle(box[:2], box[2], box[3], fill=False, color=col))
+                    speaking = bool(res.speaking[i])
+                    ax.text(
+                        box[0],
+                        box[1] - 8,
+                        str(tid),
+                        fontsize=10,
+                        weight="bold",
+                        color="green" if speaking else "red",
+                    )
+                    continue
+                if res.precisions is None or (no_audio and r == 2):
+                    continue
+                cov, ok = _covariance(res.precisions[i, r - 1])
+                if ok:
+                    _ellipse(ax, centre, cov, col)
+    fig.tight_layout()
+    with atomic_write(path, "wb") as fh:
+        fig.savefig(fh, format="png", dpi=80)
+    plt.close(fig)
