@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "simulate",
     "localize",
     "track_audio",
+    "track_av",
     "robot_sim",
     "track_phd",
     "eval_cmd",
