@@ -166,21 +166,20 @@ def main(argv: list[str] | None = None) -> int:
     print("| Filter | pair | ESS | Resampling | Time (s) | frames |")
     print("|---|---|---|---|---|---|")
     n_frames = {p: load_av163(args.data, *p).n_frames for p in pairs}
-    for c in [c for c in cols if c != "vem"]:
-        for p in pairs:
-            if p != (45, 1):
-                continue
-            r = np.array(results[c][p])
+
+    def fmt(v: float, digits: int) -> str:
+        return "–" if np.isnan(v) else f"{v:.{digits}f}"
+
+    for c in cols:
+        rows = [("45 (1)", results[c][p]) for p in pairs if p == (45, 1)]
+        rows.append((f"mean of {len(pairs)}", [x for p in pairs for x in results[c][p]]))
+        for where, runs in rows:
+            r = np.array(runs, dtype=float)
+            n = n_frames[45, 1] if where == "45 (1)" else np.mean(list(n_frames.values()))
             print(
-                f"| {label[c]} | 45 (1) | {r[:, 1].mean():.1f} | {r[:, 2].mean():.1f} | "
-                f"{r[:, 3].mean():.2f} | {n_frames[p]} |"
+                f"| {label[c]} | {where} | {fmt(r[:, 1].mean(), 1)} | {fmt(r[:, 2].mean(), 1)} "
+                f"| {r[:, 3].mean():.2f} | {n:.0f} |"
             )
-        r = np.array([x for p in pairs for x in results[c][p]])
-        print(
-            f"| {label[c]} | mean of {len(pairs)} | {r[:, 1].mean():.1f} | "
-            f"{r[:, 2].mean():.1f} | {r[:, 3].mean():.2f} | "
-            f"{np.mean(list(n_frames.values())):.0f} |"
-        )
     if "lpf" in cols and "npf" in cols:
         t_l = np.mean([x[3] for p in pairs for x in results["lpf"][p]])
         t_n = np.mean([x[3] for p in pairs for x in results["npf"][p]])
