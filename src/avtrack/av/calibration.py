@@ -35,7 +35,8 @@ import numpy as np
 import scipy.signal
 
 from avtrack.audio.arrays import MicArray
-from avtrack.av.features import AudioFeatureConfig, AudioFeatures, extract_audio_features
+from avtrack.audio.dprtf import DPRTFConfig
+from avtrack.av.features import AudioFeatureConfig, extract_audio_features
 from avtrack.av.gllim import AudioImageMapping, fit_gllim
 from avtrack.simulate import acoustics
 from avtrack.simulate.camera import PinholeCamera
@@ -84,10 +85,7 @@ class CalibrationSet:
 def calibration_feature_config(config: AudioFeatureConfig | None = None) -> AudioFeatureConfig:
     """The front end for white-noise calibration: ``config`` without noise tracking."""
     config = config or AudioFeatureConfig()
-    dprtf = config.dprtf if config.dprtf is not None else None
-    from avtrack.audio.dprtf import DPRTFConfig
-
-    dprtf = dataclasses.replace(dprtf or DPRTFConfig(), noise=None)
+    dprtf = dataclasses.replace(config.dprtf or DPRTFConfig(), noise=None)
     return dataclasses.replace(config, dprtf=dprtf, vad_min_fraction=0.0)
 
 
@@ -323,11 +321,3 @@ def scene_setup(
         np.asarray(scenario["array"]["position"]), scenario["array"]["yaw_deg"]
     )
     return room, scene_array(scenario, scenario_path), pose, scene_camera(scenario)
-
-
-def calibration_features(calib: CalibrationSet) -> AudioFeatures:
-    """The calibration frames as :class:`~avtrack.av.features.AudioFeatures` (for checks)."""
-    m, k = calib.active.shape
-    return AudioFeatures(
-        calib.features, calib.active, np.ones(m, bool), np.ones(m), np.ones((m, k))
-    )

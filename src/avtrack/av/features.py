@@ -253,7 +253,7 @@ def aggregate_frames(
     -------
     AudioFeatures (``n_video`` frames)
     """
-    n_ch, n_f, _ = values.shape
+    n_ch = values.shape[0]
     k, l_ = config.n_bands, config.band_size
     local = index - first_video
     keep = (local >= 0) & (local < n_video)
@@ -292,7 +292,6 @@ def aggregate_frames(
     band = np.transpose(band, (3, 1, 0, 2)).reshape(n_video, k, n_ch * l_)
     feats = np.concatenate([band.real, band.imag], axis=2)
     feats = np.where(active[:, :, None], np.nan_to_num(feats), 0.0)
-    del n_f
     return AudioFeatures(feats, active, vad, speech_fraction, band_power)
 
 

@@ -25,6 +25,23 @@ the visual field of view the absence of detections is no evidence: their visibil
 updated when they are heard, and they are deleted after ``out_of_view_death_frames`` frames
 neither seen nor heard. Tracks whose centre leaves the image are not reported.
 
+**Departures from the printed model**, each a parameter of :class:`VAVITConfig` (or of the
+mapping), all measured in ``benchmarks/bench_vavit.py``:
+
+* audio-to-image mappings of horizontal arrays (a binaural head) map to the horizontal image
+  coordinate only (:func:`avtrack.av.calibration.train_mapping`, ``axes``): their vertical
+  estimates are biased by 100-160 px at run time and dragged audio-only tracks off;
+* the audio clutter density is the GLLiM marginal of the features, "a source at an unknown
+  position", rather than a uniform density (the voice of someone not tracked goes to clutter
+  instead of pulling a tracked person towards it);
+* the calibrated noise covariances are scaled by ``sigma_scale`` and the summed audio
+  information of the E-S step by ``audio_information_scale`` (speech features are noisier than
+  white-noise calibration features, and the sub-bands of a frame share their errors);
+* a person not seen loses velocity (``coast_velocity_decay``), and a newborn whose appearance
+  matches a person not seen lately takes that person's identity (``reid_log_ratio``);
+* in diarization, speech claimed by no tracked person can be clustered as unseen speakers
+  (``track_scene(..., unseen_speakers=True)``).
+
 ``track_scene`` runs the tracker on a scene directory (:mod:`avtrack.simulate.scene`).
 """
 
