@@ -8,9 +8,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli.base import HelpFormatter, add_common, read_config_mapping
 from avtrack.errors import InputError
 from avtrack.io.mot import write_mot
 from avtrack.io.rttm import write_rttm
@@ -115,17 +114,7 @@ def load_config(path: Path | None, threshold: float | None):
 
     values: dict = {}
     if path is not None:
-        if not path.is_file():
-            raise InputError("config file not found", path)
-        try:
-            loaded = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
-        if loaded is None:
-            loaded = {}
-        if not isinstance(loaded, dict):
-            raise InputError("expected a mapping of VAVITConfig fields", path)
-        values.update(loaded)
+        values.update(read_config_mapping(path, "VAVITConfig fields"))
     if threshold is not None:
         values["diarization_threshold"] = threshold
     try:

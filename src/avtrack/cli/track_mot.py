@@ -9,9 +9,8 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli.base import HelpFormatter, add_common, read_config_mapping
 from avtrack.errors import InputError
 from avtrack.io.datasets import find_seqinfo, read_seqinfo
 from avtrack.io.mot import read_mot, write_mot
@@ -71,17 +70,7 @@ def parse_image_size(text: str) -> tuple[int, int]:
 def load_config(path: Path | None, overrides: dict) -> OVBTConfig:
     values: dict = {}
     if path is not None:
-        if not path.is_file():
-            raise InputError("config file not found", path)
-        try:
-            loaded = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
-        if loaded is None:
-            loaded = {}
-        if not isinstance(loaded, dict):
-            raise InputError("expected a mapping of OVBTConfig fields", path)
-        values.update(loaded)
+        values.update(read_config_mapping(path, "OVBTConfig fields"))
     values.update({k: v for k, v in overrides.items() if v is not None})
     try:
         return OVBTConfig.from_dict(values)

@@ -7,9 +7,8 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli.base import HelpFormatter, add_common, read_config_mapping
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
 from avtrack.io.base import atomic_write
@@ -98,16 +97,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def load_config(path: Path | None) -> PHDConfig:
     if path is None:
         return PHDConfig()
-    if not path.is_file():
-        raise InputError("config file not found", path)
-    try:
-        loaded = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
-    if loaded is None:
-        loaded = {}
-    if not isinstance(loaded, dict):
-        raise InputError("expected a mapping of PHDConfig fields", path)
+    loaded = read_config_mapping(path, "PHDConfig fields")
     try:
         return PHDConfig.from_dict(loaded)
     except (TypeError, ValueError) as exc:
