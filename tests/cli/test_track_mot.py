@@ -104,7 +104,7 @@ def test_help_has_examples(capsys):
 
 def test_demo_prints_scores(shared_data, tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("AVTRACK_SHARED_DATA", str(shared_data))
-    assert main(["demo", "-o", str(tmp_path / "demo")]) == 0
+    assert main(["demo", "--mot", "-o", str(tmp_path / "demo")]) == 0
     out = capsys.readouterr().out
     assert "MOTA" in out and "IDF1" in out
     assert (tmp_path / "demo" / "TUD-Campus.txt").is_file()

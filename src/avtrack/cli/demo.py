@@ -1,7 +1,10 @@
 """``avtrack demo``: the one-command tour.
 
-Until the scene simulator exists, the demo tracks the real MOT15 TUD-Campus detections in the
-shared data folder and scores the result against the ground truth.
+By default: simulate a meeting (3 people, a 4-microphone NAO-like array and a camera), track
+and diarize it with the audio-visual tracker, localize the talkers, print MOTA, IDF1, DER and
+DOA MAE and write a report folder with ``index.html``. It needs no data: without
+``../shared/data`` the talkers speak synthetic speech. ``--mot`` instead tracks the real MOT15
+TUD-Campus detections of the shared data folder.
 """
 
 from __future__ import annotations
@@ -20,9 +23,10 @@ from avtrack.tracking.ovbt import track_mot
 
 EXAMPLES = """\
 examples:
-  avtrack demo                  # results in ./avtrack-demo/
-  avtrack demo -o /tmp/demo     # elsewhere
-  AVTRACK_SHARED_DATA=/data/shared/data avtrack demo
+  avtrack demo                  # simulated meeting; report in ./avtrack-demo/index.html
+  avtrack demo -o /tmp/demo --seed 3 --duration 30
+  avtrack demo --mot            # the real MOT15 TUD-Campus sequence (needs ../shared/data)
+  AVTRACK_SHARED_DATA=/data/shared/data avtrack demo --mot
 """
 
 SEQUENCE = "TUD-Campus"
@@ -31,19 +35,28 @@ IMAGE_SIZE = (640, 480)  # MOT15 TUD-Campus
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
-        "demo", help="track a real sequence (MOT15 TUD-Campus) and print the scores",
-        description=("Track the public detections of MOT15 TUD-Campus with the visual VEM "
-                     "tracker and score\nthe result with TrackEval (MOTA, IDF1, HOTA ...). The "
-                     "data come from the shared data\nfolder (../shared/data, or "
-                     "$AVTRACK_SHARED_DATA)."),
+        "demo", help="simulate a meeting, track and diarize it, print the scores, write a report",
+        description=("Simulate a meeting (3 people, NAO-like 4-microphone array, camera), track "
+                     "and diarize it with\nthe audio-visual VEM tracker, localize the talkers, "
+                     "print MOTA, IDF1, DER and DOA MAE,\nand write DIR/index.html. With --mot: "
+                     "track the real MOT15 TUD-Campus detections\n(../shared/data or "
+                     "$AVTRACK_SHARED_DATA) with the visual tracker instead."),
         epilog=EXAMPLES, formatter_class=HelpFormatter)
     p.add_argument("-o", "--output", type=Path, default=Path("avtrack-demo"), metavar="DIR",
                    help="output folder (default: %(default)s)")
+    p.add_argument("--mot", action="store_true", help="the MOT15 TUD-Campus visual demo")
+    p.add_argument("--seed", type=int, default=0, metavar="S", help="scene seed (default 0)")
+    p.add_argument("--duration", type=float, default=20.0, metavar="SECONDS",
+                   help="scene length (default 20)")
     add_common(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if not args.mot:
+        from avtrack.cli.demo_av import run_av
+
+        return run_av(args)
     seq = find_shared_data() / "mot15" / SEQUENCE
     dets = read_mot(seq / "det" / "det.txt", kind="det")
     gt = read_mot(seq / "gt" / "gt.txt", kind="gt")

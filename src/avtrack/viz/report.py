@@ -1,0 +1,116 @@
+"""A self-contained HTML report of an audio-visual scene and what the trackers made of it.
+
+Figures are drawn with matplotlib (Agg) and embedded in ``index.html`` as base64 PNGs, so the
+report is one file that opens without network access or other files.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import io
+from collections.abc import Sequence
+
+import numpy as np
+
+from avtrack.io.mot import MOTData
+from avtrack.io.rttm import RTTMSegment
+
+
+def _png(fig) -> str:
+    import matplotlib.pyplot as plt
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    plt.close(fig)
+    return base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+def _figure(width: float = 9.0, height: float = 3.2):
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    return plt.subplots(figsize=(width, height))
+
+
+def trajectories_figure(gt: MOTData, tracks: MOTData, fps: float, width: int) -> str:
+    """Horizontal image position of every head over time: ground truth (grey) and tracks."""
+    fig, ax = _figure()
+    for pid in np.unique(gt.ids):
+        m = gt.ids == pid
+        ax.plot((gt.frames[m] - 1) / fps, gt.boxes[m, 0] + gt.boxes[m, 2] / 2, ".", ms=5,
+                color="0.75", label="ground truth" if pid == gt.ids.min() else None)  # fmt: skip
+    cmap = __import__("matplotlib").colormaps["tab10"]
+    for k, tid in enumerate(np.unique(tracks.ids)):
+        m = tracks.ids == tid
+        ax.plot((tracks.frames[m] - 1) / fps, tracks.boxes[m, 0] + tracks.boxes[m, 2] / 2,
+                ".", ms=2, color=cmap(k % 10), label=f"track {tid}")  # fmt: skip
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("box centre x (px)")
+    ax.set_ylim(0, width)
+    ax.legend(loc="upper right", fontsize=7, ncol=4)
+    fig.tight_layout()
+    return _png(fig)
+
+
+def heatmap_figure(
+    weights: np.ndarray, times: np.ndarray, azimuths: np.ndarray, truth=None
+) -> str:
+    """DOA heat map (time x azimuth) with the speaking ground truth on top."""
+    fig, ax = _figure()
+    order = np.argsort(azimuths)
+    ax.imshow(weights[:, order].T, aspect="auto", origin="lower", cmap="magma",
+              extent=(times[0], times[-1], azimuths[order][0], azimuths[order][-1]))  # fmt: skip
+    if truth is not None and len(truth):
+        on = truth.active
+        ax.plot(truth.time_s[on], truth.azimuth_deg[on], ",", color="cyan")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("azimuth (deg)")
+    fig.tight_layout()
+    return _png(fig)
+
+
+def timeline_figure(reference: Sequence[RTTMSegment], hypothesis: Sequence[RTTMSegment]) -> str:
+    """Who speaks when: ground truth above, diarization below (like thesis Fig. 4.4)."""
+    fig, ax = _figure(9.0, 2.6)
+    rows: list[str] = []
+    for label, segs, colour in (("truth", reference, "0.4"), ("avtrack", hypothesis, "C1")):
+        for spk in sorted({s.speaker for s in segs}):
+            rows.append(f"{label} {spk}")
+            y = len(rows) - 1
+            bars = [(s.start, s.duration) for s in segs if s.speaker == spk]
+            ax.broken_barh(bars, (y - 0.35, 0.7), color=colour)
+    ax.set_yticks(range(len(rows)), rows, fontsize=7)
+    ax.set_xlabel("time (s)")
+    fig.tight_layout()
+    return _png(fig)
+
+
+def write_report(path, title: str, scores: dict[str, float], figures: dict[str, str],
+                 notes: Sequence[str] = ()) -> None:  # fmt: skip
+    """``index.html``: a title, a scores table, notes and the embedded figures (atomic)."""
+    from avtrack.io.base import atomic_write
+
+    rows = "".join(
+        f"<tr><th>{html.escape(k)}</th><td>{v:.2f}</td></tr>"
+        if isinstance(v, float) else f"<tr><th>{html.escape(k)}</th><td>{v}</td></tr>"
+        for k, v in scores.items()
+    )  # fmt: skip
+    figs = "".join(
+        f"<h2>{html.escape(name)}</h2><img alt='{html.escape(name)}' "
+        f"src='data:image/png;base64,{data}'>"
+        for name, data in figures.items()
+    )
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
+    text = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
+<style>body{{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}}
+table{{border-collapse:collapse}}th,td{{border:1px solid #ccc;padding:4px 10px;text-align:left}}
+img{{max-width:100%}}</style></head>
+<body><h1>{html.escape(title)}</h1>
+<table id="scores">{rows}</table><ul>{items}</ul>{figs}</body></html>
+"""
+    with atomic_write(path) as fh:
+        fh.write(text)
