@@ -297,6 +297,12 @@ class _Table:
             raise self.error(
                 "year, month, day, hour and minute must be integers", int(np.argmax(bad))
             )
+        out_of_range = np.any((cal[:, :5] < 0) | (cal[:, :5] > 9999), axis=1)
+        if np.any(out_of_range):
+            raise self.error(
+                "year, month, day, hour and minute must lie in [0, 9999]",
+                int(np.argmax(out_of_range)),
+            )
         origin = tuple(float(v) for v in cal[0]) if origin is None else origin
         dates, inverse = np.unique(cal[:, :3].astype(np.int64), axis=0, return_inverse=True)
         inverse = inverse.ravel()
