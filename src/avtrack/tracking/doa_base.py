@@ -33,6 +33,33 @@ import numpy as np
 
 from avtrack.io.doa import DOATable, wrap_azimuth
 
+
+def check_config_fields(
+    config: Any,
+    positive: tuple[str, ...] = (),
+    finite: tuple[str, ...] = (),
+    counts: tuple[str, ...] = (),
+) -> None:
+    """Validate a tracker config's numeric fields, naming the class and field on failure.
+
+    ``positive``: finite numbers > 0; ``finite``: finite numbers; ``counts``: integers >= 1.
+    Booleans are rejected everywhere (``True`` is not a number of iterations).
+    """
+    owner = type(config).__name__
+    for name in positive:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+            raise ValueError(f"{owner}.{name} must be a positive number, got {v!r}")
+    for name in finite:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v)):
+            raise ValueError(f"{owner}.{name} must be a finite number, got {v!r}")
+    for name in counts:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not (isinstance(v, int) and v >= 1):
+            raise ValueError(f"{owner}.{name} must be an integer >= 1, got {v!r}")
+
+
 TRACKERS: dict[str, type[DOATracker]] = {}
 """Registered DOA tracker classes by name (``"gauss"``, ``"vonmises"``)."""
 

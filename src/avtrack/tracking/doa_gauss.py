@@ -62,6 +62,7 @@ from avtrack.tracking.doa_base import (
     DOATracker,
     SpeakerActivity,
     TrackFrame,
+    check_config_fields,
     register_tracker,
 )
 from avtrack.tracking.engine import VEMEngine
@@ -95,36 +96,27 @@ class GaussConfig:
     merge_s: float = 0.6  #: ... for this long is deleted (a duplicate), seconds
 
     def __post_init__(self) -> None:
-        positive = (
-            "obs_var",
-            "dyn_std_dir",
-            "dyn_std_vel",
-            "max_direction_std",
-            "max_velocity_std",
-            "birth_velocity_std",
-            "death_s",
-            "merge_s",
+        check_config_fields(
+            self,
+            positive=(
+                "obs_var",
+                "dyn_std_dir",
+                "dyn_std_vel",
+                "max_direction_std",
+                "max_velocity_std",
+                "birth_velocity_std",
+                "death_s",
+                "merge_s",
+            ),
+            finite=(
+                "log_clutter_density",
+                "birth_threshold",
+                "activity_threshold",
+                "birth_min_separation_deg",
+                "merge_deg",
+            ),
+            counts=("n_iter", "birth_frames", "activity_frames"),
         )
-        for name in positive:
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (
-                isinstance(v, int | float) and np.isfinite(v) and v > 0
-            ):
-                raise ValueError(f"GaussConfig.{name} must be a positive number, got {v!r}")
-        for name in (
-            "log_clutter_density",
-            "birth_threshold",
-            "activity_threshold",
-            "birth_min_separation_deg",
-            "merge_deg",
-        ):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v)):
-                raise ValueError(f"GaussConfig.{name} must be a finite number, got {v!r}")
-        for name in ("n_iter", "birth_frames", "activity_frames"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (isinstance(v, int) and v >= 1):
-                raise ValueError(f"GaussConfig.{name} must be an integer >= 1, got {v!r}")
         if not (isinstance(self.velocity_decay, int | float) and 0 < self.velocity_decay <= 1):
             raise ValueError(
                 f"GaussConfig.velocity_decay must be in (0, 1], got {self.velocity_decay!r}"

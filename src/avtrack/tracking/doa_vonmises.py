@@ -61,6 +61,7 @@ from avtrack.tracking.doa_base import (
     DOATracker,
     SpeakerActivity,
     TrackFrame,
+    check_config_fields,
     register_tracker,
 )
 from avtrack.tracking.vem import e_z_step, exclusive_projection, m_step_priors
@@ -198,25 +199,17 @@ class VonMisesConfig:
     merge_s: float = 1.5  #: ... for this long is deleted (a duplicate), seconds
 
     def __post_init__(self) -> None:
-        for name in ("kappa_y", "kappa_d", "kappa_rate", "death_s", "merge_s"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (
-                isinstance(v, int | float) and np.isfinite(v) and v > 0
-            ):
-                raise ValueError(f"VonMisesConfig.{name} must be a positive number, got {v!r}")
-        for name in (
-            "birth_threshold",
-            "activity_threshold",
-            "birth_min_separation_deg",
-            "merge_deg",
-        ):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v)):
-                raise ValueError(f"VonMisesConfig.{name} must be a finite number, got {v!r}")
-        for name in ("n_iter", "birth_frames", "birth_candidates", "activity_frames"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not (isinstance(v, int) and v >= 1):
-                raise ValueError(f"VonMisesConfig.{name} must be an integer >= 1, got {v!r}")
+        check_config_fields(
+            self,
+            positive=("kappa_y", "kappa_d", "kappa_rate", "death_s", "merge_s"),
+            finite=(
+                "birth_threshold",
+                "activity_threshold",
+                "birth_min_separation_deg",
+                "merge_deg",
+            ),
+            counts=("n_iter", "birth_frames", "birth_candidates", "activity_frames"),
+        )
         for name in ("kappa_y_range", "kappa_d_range"):
             v = tuple(getattr(self, name))
             if len(v) != 2 or not (0 < v[0] <= v[1] < np.inf):
