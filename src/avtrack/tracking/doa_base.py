@@ -66,6 +66,14 @@ TRACKERS: dict[str, type[DOATracker]] = {}
 #: Tracker update period of thesis §5.5.2: one update every 32 ms (4 STFT hops of 8 ms).
 FRAME_PERIOD_S = 0.032
 
+#: What each tracker observes by default: every candidate direction with its weight
+#: (``"all"``, thesis §5.4) or only the peaks of the heat map (``"peaks"``, the peak lists of
+#: §5.6.5).
+DEFAULT_OBSERVATIONS = {"gauss": "all", "vonmises": "peaks"}
+
+#: Peaks of a block-mean heat map below this weight are not observations.
+PEAK_FLOOR = 0.05
+
 
 def register_tracker(name: str) -> Callable[[type[DOATracker]], type[DOATracker]]:
     """Class decorator registering a :class:`DOATracker` subclass under ``name``."""
