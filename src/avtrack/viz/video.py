@@ -1,0 +1,825 @@
+"""A video (MP4 or WebM) of the tracks, their identities and who speaks, over the camera view.
+
+The simulator renders no images, so every frame is drawn here, back to front:
+
+1. **the room** (drawn once): with a camera and the room's dimensions, each pixel's ray is cast
+   through the pinhole camera into the shoebox room, giving floor (with a 0.5 m grid), walls,
+   ceiling and their edges; with a camera only, a floor plane up to the horizon; with neither,
+   a wall/floor gradient;
+2. **the ground-truth people**: a head-and-shoulders silhouette at each ground-truth head box,
+   the farthest (smallest) first, and optionally the ground-truth box as a thin grey outline;
+3. **the tracks**: each box outlined in its identity's colour (the ``tab10`` colours, by rank of
+   the track id, as in :func:`avtrack.viz.report.trajectories_figure`) with an id tag above it;
+   a track that speaks gets a thicker box, the tag ``<id> speaking`` and a speech bubble (filled
+   in the track's colour, white rim and dots) beside the head, to the right of the box;
+4. the frame number, time and title in a band at the top, and a legend at the bottom left.
+
+Frames are ``(height, width, 3)`` ``uint8`` BGR images (OpenCV's order). The container follows
+the file suffix, :data:`VIDEO_CODECS`: ``.mp4`` with MPEG-4 Part 2 (``mp4v``; plays in VLC and
+most desktop players, not inline in browsers) or ``.webm`` with VP8 (plays inline in Chromium
+and Firefox). Both encoders need even frame sizes: an odd width or height is rounded up and the
+extra column / row is background. Files are written atomically (a temporary file next to the
+destination, renamed onto it when complete).
+
+Example
+-------
+>>> res = track_scene(scene_dir, mapping)
+>>> render_scene_video(scene_dir, res, "out/tracks.webm")
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import os
+import tempfile
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from avtrack.io.mot import MOTData
+from avtrack.simulate.camera import PinholeCamera
+
+if TYPE_CHECKING:
+    from avtrack.tracking.vavit import AVSceneResult, SceneInputs
+
+#: Four-character code of the encoder used for each file suffix.
+VIDEO_CODECS: dict[str, str] = {".mp4": "mp4v", ".webm": "VP80"}
+
+#: matplotlib's ``tab10`` as BGR: track ``k`` (by rank of id) gets ``TAB10_BGR[k % 10]``.
+TAB10_BGR: tuple[tuple[int, int, int], ...] = (
+    (180, 119, 31),
+    (14, 127, 255),
+    (44, 160, 44),
+    (40, 39, 214),
+    (189, 103, 148),
+    (75, 86, 140),
+    (194, 119, 227),
+    (127, 127, 127),
+    (34, 189, 188),
+    (207, 190, 23),
+)
+
+#: Spacing of the floor grid, metres.
+FLOOR_GRID_M = 0.5
+#: Radius of the speech bubble at an image height of 480 pixels (scaled with the height).
+BUBBLE_RADIUS = 10
+#: Most track ids listed in the legend.
+LEGEND_MAX_TRACKS = 8
+
+_GT_BGR = (200, 200, 200)
+_SKIN_BGR = (150, 178, 214)
+_CLOTH_BGR = (92, 84, 76)
+_OUTLINE_BGR = (50, 50, 50)
+_WHITE = (255, 255, 255)
+_INK = (20, 20, 20)
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def _image_size(image_size: Sequence[int]) -> tuple[int, int]:
+    try:
+        w, h = image_size
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"image_size must be (width, height), two integers > 0, got {image_size!r}"
+        ) from None
+    for name, v in (("width", w), ("height", h)):
+        ok = not isinstance(v, bool) and isinstance(v, int | np.integer) and 0 < v <= 16384
+        if not ok:
+            raise ValueError(f"image_size: {name} must be an integer in [1, 16384], got {v!r}")
+    return int(w), int(h)
+
+
+def _room_dims(room_dims: Sequence[float] | np.ndarray | None) -> np.ndarray | None:
+    if room_dims is None:
+        return None
+    d = np.asarray(room_dims, dtype=float)
+    if d.shape != (3,) or not np.all(np.isfinite(d)) or np.any(d <= 0):
+        raise ValueError(f"room_dims must be 3 finite sizes > 0 (metres), got {room_dims!r}")
+    return d
+
+
+def _check_camera(camera: PinholeCamera | None, size: tuple[int, int]) -> None:
+    if camera is None:
+        return
+    if not isinstance(camera, PinholeCamera):
+        raise TypeError(f"camera must be a PinholeCamera or None, got {type(camera).__name__}")
+    if (camera.width, camera.height) != size:
+        raise ValueError(
+            f"camera image size {camera.width}x{camera.height} does not match image_size "
+            f"{size[0]}x{size[1]}"
+        )
+
+
+def video_codec(path: str | Path, codec: str | None = None) -> str:
+    """The four-character code to encode ``path`` with.
+
+    Parameters
+    ----------
+    path : str or Path
+        Destination; its suffix (``.mp4`` or ``.webm``, any case) picks the container.
+    codec : str, optional
+        Four characters overriding the default of the suffix (:data:`VIDEO_CODECS`).
+
+    Raises
+    ------
+    ValueError
+        For another suffix, or a codec that is not four characters.
+    """
+    suffix = Path(path).suffix.lower()
+    if suffix not in VIDEO_CODECS:
+        raise ValueError(
+            f"path: video suffix must be one of {sorted(VIDEO_CODECS)}, got {suffix or 'none'!r} "
+            f"({path})"
+        )
+    if codec is None:
+        return VIDEO_CODECS[suffix]
+    if not isinstance(codec, str) or len(codec) != 4:
+        raise ValueError(f"codec must be a four-character code such as 'mp4v', got {codec!r}")
+    return codec
+
+
+# --------------------------------------------------------------------------- colours
+
+
+def track_colours(ids: np.ndarray | Sequence[int]) -> dict[int, tuple[int, int, int]]:
+    """BGR colour of each track id: ``tab10`` by rank of the sorted unique ids.
+
+    Parameters
+    ----------
+    ids : array_like (K,) int
+
+    Returns
+    -------
+    dict
+        ``{id: (b, g, r)}``, the colours of :func:`avtrack.viz.report.trajectories_figure`.
+    """
+    unique = np.unique(np.asarray(ids, dtype=np.int64))
+    return {int(t): TAB10_BGR[k % len(TAB10_BGR)] for k, t in enumerate(unique)}
+
+
+# --------------------------------------------------------------------------- background
+
+
+def _gradient_background(width: int, height: int) -> np.ndarray:
+    """A plain room: wall gradient above 55 % of the height, floor gradient below."""
+    v = (np.arange(height, dtype=np.float32) + 0.5) / height
+    horizon = 0.55
+    wall_top, wall_bottom = np.array([222, 226, 228]), np.array([188, 196, 202])
+    floor_far, floor_near = np.array([132, 150, 166]), np.array([96, 112, 128])
+    col = np.empty((height, 3), dtype=np.float32)
+    up = v < horizon
+    a = (v[up] / horizon)[:, None]
+    col[up] = wall_top + a * (wall_bottom - wall_top)
+    b = ((v[~up] - horizon) / (1 - horizon))[:, None]
+    col[~up] = floor_far + b * (floor_near - floor_far)
+    img = np.repeat(col[:, None, :], width, axis=1)
+    return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def render_background(
+    image_size: Sequence[int],
+    camera: PinholeCamera | None = None,
+    room_dims: Sequence[float] | np.ndarray | None = None,
+) -> np.ndarray:
+    """The empty room as the camera sees it.
+
+    Each pixel centre ``(u, v)`` is back-projected to the room-frame ray
+    ``d = R^T K^{-1} [u, v, 1]^T`` from the optical centre ``C``; the ray meets the shoebox
+    ``[0, L_x] x [0, L_y] x [0, L_z]`` at ``C + t d`` with ``t = min_a (b_a - C_a) / d_a``
+    (``b_a`` the wall ahead along axis ``a``), which gives the surface and its shading.
+
+    Parameters
+    ----------
+    image_size : (int, int)
+        ``(width, height)`` in pixels.
+    camera : PinholeCamera, optional
+        Without it: a wall/floor gradient.
+    room_dims : ndarray (3,), optional
+        Room size in metres; without it (but with a camera): an endless floor at z = 0.
+
+    Returns
+    -------
+    ndarray (height, width, 3) uint8
+        BGR image.
+
+    Raises
+    ------
+    ValueError
+        On a bad size, a camera of another image size, or a camera outside the room.
+    """
+    width, height = _image_size(image_size)
+    _check_camera(camera, (width, height))
+    dims = _room_dims(room_dims)
+    if camera is None:
+        return _gradient_background(width, height)
+    c = camera.position
+    lo = np.array([-np.inf, -np.inf, 0.0])
+    hi = np.full(3, np.inf) if dims is None else dims
+    if not np.all((c > lo) & (c < hi)):
+        raise ValueError(
+            f"camera position {c.tolist()} must be inside the room "
+            f"{'above the floor' if dims is None else f'(0, 0, 0)-{dims.tolist()}'}"
+        )
+    u = np.arange(width, dtype=float) + 0.5
+    v = np.arange(height, dtype=float) + 0.5
+    xn, yn = np.meshgrid((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy)
+    xc = np.stack([xn, yn, np.ones_like(xn)], axis=-1)  # K^-1 [u, v, 1]^T, (H, W, 3)
+    d = xc @ camera.R  # d = R^T x_c, (H, W, 3); t below is the depth along the optical axis
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bound = np.where(d > 0, hi, lo)
+        t_axis = (bound - c) / d  # distance to the wall ahead along each axis
+    t_axis = np.where(np.isfinite(t_axis) & (t_axis > 0), t_axis, np.inf)
+    order = np.sort(t_axis, axis=-1)
+    t = order[..., 0]
+    axis = np.argmin(t_axis, axis=-1)
+    hit = np.isfinite(t)
+    p = c + np.where(hit, t, 0.0)[..., None] * d
+    pixel_m = t / camera.fx  # size of a pixel at that depth, metres
+
+    img = np.empty((height, width, 3), dtype=np.float32)
+    wall_x, wall_y = np.array([196, 206, 214]), np.array([184, 194, 204])
+    ceiling, floor = np.array([228, 232, 234]), np.array([120, 140, 160])
+    img[:] = np.where((axis == 0)[..., None], wall_x, wall_y)
+    down, up = (axis == 2) & (d[..., 2] < 0), (axis == 2) & (d[..., 2] > 0)
+    img[up] = ceiling
+    img[down] = floor
+    # floor grid: anti-aliased lines one pixel wide every FLOOR_GRID_M metres
+    g = p[down][:, :2] / FLOOR_GRID_M
+    dist = np.min(np.abs(g - np.round(g)), axis=1) * FLOOR_GRID_M  # metres to the nearest line
+    line = np.clip(1.0 - dist / np.maximum(pixel_m[down], 1e-9), 0.0, 1.0)
+    img[down] *= (1.0 - 0.25 * line)[:, None]
+    # skirting board: the bottom 8 cm of the walls
+    skirt = (axis < 2) & hit & (p[..., 2] < 0.08)
+    img[skirt] *= 0.8
+    # room edges: where the second-nearest wall is within a pixel of the nearest
+    second = order[..., 1]
+    with np.errstate(invalid="ignore"):  # inf - inf where no second wall is ahead
+        gap = (second - t) * np.linalg.norm(d, axis=-1)  # metres between the two walls
+    edge = hit & np.isfinite(gap) & (gap < pixel_m)
+    img[edge] *= 0.7
+    # distance shading
+    shade = np.clip(1.08 - 0.045 * np.where(hit, t, 30.0), 0.72, 1.0)
+    img *= shade[..., None]
+    if dims is None:  # beyond the horizon: wall gradient
+        sky = ~hit
+        img[sky] = _gradient_background(width, height).astype(np.float32)[sky]
+    return np.clip(img + 0.5, 0, 255).astype(np.uint8)
+
+
+# --------------------------------------------------------------------------- drawing
+
+
+def _int_box(box: np.ndarray, width: int, height: int) -> tuple[int, int, int, int]:
+    """``(x0, y0, x1, y1)`` integer corners, kept within a frame's size of the image."""
+    left, top, w, h = (float(x) for x in box)
+    x0 = round(min(max(left, -width), 2 * width))
+    y0 = round(min(max(top, -height), 2 * height))
+    x1 = round(min(max(left + w, -width), 2 * width))
+    y1 = round(min(max(top + h, -height), 2 * height))
+    return x0, y0, x1, y1
+
+
+def _draw_person(img: np.ndarray, box: np.ndarray, cv2) -> None:
+    """Head (ellipse in the head box), neck and shoulders below it."""
+    x0, y0, x1, y1 = _int_box(box, img.shape[1], img.shape[0])
+    w, h = max(x1 - x0, 2), max(y1 - y0, 2)
+    cx = (x0 + x1) // 2
+    sh_top = y1 + int(0.15 * h)  # shoulders start just below the chin
+    body = np.array(
+        [
+            [cx - int(1.1 * w), sh_top + int(0.35 * h)],
+            [cx - int(0.7 * w), sh_top],
+            [cx + int(0.7 * w), sh_top],
+            [cx + int(1.1 * w), sh_top + int(0.35 * h)],
+            [cx + int(1.2 * w), y1 + 4 * h],
+            [cx - int(1.2 * w), y1 + 4 * h],
+        ],
+        dtype=np.int32,
+    )
+    cv2.fillPoly(img, [body], _CLOTH_BGR, cv2.LINE_AA)
+    cv2.polylines(img, [body], True, _OUTLINE_BGR, 1, cv2.LINE_AA)
+    neck = (cx - max(int(0.22 * w), 1), y1 - int(0.2 * h), cx + max(int(0.22 * w), 1), sh_top + 2)
+    cv2.rectangle(img, neck[:2], neck[2:], _SKIN_BGR, -1)
+    axes = (max(w // 2, 1), max(h // 2, 1))
+    cv2.ellipse(img, (cx, (y0 + y1) // 2), axes, 0, 0, 360, _SKIN_BGR, -1, cv2.LINE_AA)
+    cv2.ellipse(img, (cx, (y0 + y1) // 2), axes, 0, 0, 360, _OUTLINE_BGR, 1, cv2.LINE_AA)
+
+
+def _text_colour(bgr: tuple[int, int, int]) -> tuple[int, int, int]:
+    b, g, r = bgr
+    return _INK if 0.299 * r + 0.587 * g + 0.114 * b > 150 else _WHITE
+
+
+def _draw_bubble(img: np.ndarray, cx: int, cy: int, r: int, colour, cv2) -> None:
+    """Speech bubble: filled disc with a tail towards the lower left, white rim and dots."""
+    tail = np.array(
+        [
+            [cx - int(0.8 * r), cy + int(0.2 * r)],
+            [cx - int(0.1 * r), cy + int(0.9 * r)],
+            [cx - int(1.7 * r), cy + int(1.3 * r)],
+        ],
+        dtype=np.int32,
+    )
+    cv2.fillPoly(img, [tail], colour, cv2.LINE_AA)
+    cv2.polylines(img, [tail], True, _WHITE, 1, cv2.LINE_AA)
+    cv2.circle(img, (cx, cy), r, colour, -1, cv2.LINE_AA)
+    cv2.circle(img, (cx, cy), r, _WHITE, 1, cv2.LINE_AA)
+    dot = max(1, r // 6)
+    for dx in (-r // 2, 0, r // 2):
+        cv2.circle(img, (cx + dx, cy + r // 3), dot, _WHITE, -1, cv2.LINE_AA)
+
+
+def _blend(img: np.ndarray, x0: int, y0: int, patch: np.ndarray, alpha: np.ndarray) -> None:
+    """``img[y0:, x0:] = alpha patch + (1 - alpha) img`` over the patch (clipped)."""
+    h, w = patch.shape[:2]
+    x1, y1 = min(x0 + w, img.shape[1]), min(y0 + h, img.shape[0])
+    x0c, y0c = max(x0, 0), max(y0, 0)
+    if x1 <= x0c or y1 <= y0c:
+        return
+    roi = img[y0c:y1, x0c:x1]
+    p = patch[y0c - y0 : y1 - y0, x0c - x0 : x1 - x0]
+    a = alpha[y0c - y0 : y1 - y0, x0c - x0 : x1 - x0]
+    roi[:] = (a * p + (1.0 - a) * roi + 0.5).astype(np.uint8)
+
+
+class _Layout:
+    """Sizes that scale with the image height (designed at 480 pixels)."""
+
+    def __init__(self, height: int):
+        self.s = max(height / 480.0, 0.5)
+        self.font_scale = max(0.45 * self.s, 0.33)  # Hershey text is unreadable below that
+        self.thick = max(1, round(self.s))
+        self.box = max(2, round(2 * self.s))
+        self.box_speaking = max(4, round(4 * self.s))
+        self.bubble = max(6, round(BUBBLE_RADIUS * self.s))
+        self.pad = max(2, round(3 * self.s))
+
+
+def _legend(
+    colours: dict[int, tuple[int, int, int]], show_gt: bool, lay: _Layout, cv2
+) -> tuple[np.ndarray, np.ndarray]:
+    """The legend panel ``(h, w, 3)`` and its opacity ``(h, w, 1)``."""
+    font = cv2.FONT_HERSHEY_SIMPLEX
+    entries: list[tuple[str, str, tuple[int, int, int]]] = []
+    ids = sorted(colours)
+    for tid in ids[:LEGEND_MAX_TRACKS]:
+        entries.append(("box", f"track {tid}", colours[tid]))
+    if len(ids) > LEGEND_MAX_TRACKS:
+        entries.append(("none", f"+{len(ids) - LEGEND_MAX_TRACKS} more tracks", _WHITE))
+    entries.append(("bubble", "speaking", (200, 200, 200)))
+    if show_gt:
+        entries.append(("gt", "ground truth", _GT_BGR))
+    (_, th), base = cv2.getTextSize("ground truth+", font, lay.font_scale, lay.thick)
+    row = th + base + 2 * lay.pad
+    sw = 2 * lay.bubble + 2
+    width = (
+        max(cv2.getTextSize(text, font, lay.font_scale, lay.thick)[0][0] for _, text, _ in entries)
+        + sw
+        + 4 * lay.pad
+    )
+    height = row * len(entries) + 2 * lay.pad
+    panel = np.full((height, width, 3), 30, dtype=np.uint8)
+    for k, (kind, text, colour) in enumerate(entries):
+        y = lay.pad + k * row
+        x = 2 * lay.pad
+        mid = y + row // 2
+        if kind == "box":
+            cv2.rectangle(panel, (x, y + lay.pad), (x + sw, y + row - lay.pad), colour, lay.box)
+        elif kind == "gt":
+            cv2.rectangle(panel, (x, y + lay.pad), (x + sw, y + row - lay.pad), colour, 1)
+        elif kind == "bubble":
+            r = max(3, (row - 2 * lay.pad) // 2)
+            _draw_bubble(panel, x + sw - r - 1, mid - r // 3, r, (120, 120, 120), cv2)
+        cv2.putText(
+            panel,
+            text,
+            (x + sw + lay.pad, mid + th // 2),
+            font,
+            lay.font_scale,
+            _WHITE,
+            lay.thick,
+            cv2.LINE_AA,
+        )
+    alpha = np.where(np.any(panel != 30, axis=-1), 1.0, 0.6).astype(np.float32)[..., None]
+    return panel, alpha
+
+
+class _Renderer:
+    """Draws the frames; everything that does not change over time is prepared once."""
+
+    def __init__(
+        self,
+        tracks: MOTData,
+        speaking: np.ndarray,
+        size: tuple[int, int],
+        fps: float,
+        n_frames: int,
+        gt: MOTData | None,
+        camera: PinholeCamera | None,
+        room_dims: np.ndarray | None,
+        show_gt_boxes: bool,
+        legend: bool,
+        title: str | None,
+    ):
+        import cv2
+
+        self.cv2 = cv2
+        self.tracks, self.speaking, self.gt = tracks, speaking, gt
+        self.fps, self.n_frames, self.title = fps, n_frames, title
+        self.show_gt_boxes = show_gt_boxes and gt is not None
+        w, h = size
+        self.size = size
+        self.out_size = (w + w % 2, h + h % 2)  # the encoders need even sizes
+        bg = render_background(size, camera, room_dims)
+        if self.out_size != size:
+            bg = cv2.copyMakeBorder(bg, 0, h % 2, 0, w % 2, cv2.BORDER_REPLICATE)
+        self.background = bg
+        self.lay = _Layout(h)
+        self.colours = track_colours(tracks.ids)
+        self.track_rows = tracks.frame_slices(n_frames)
+        self.gt_rows = None if gt is None else gt.frame_slices(n_frames)
+        self.legend = _legend(self.colours, gt is not None, self.lay, cv2) if legend else None
+
+    def frame(self, f: int) -> np.ndarray:
+        """Frame ``f`` (1-based), ``(height, width, 3)`` uint8 BGR."""
+        cv2, lay = self.cv2, self.lay
+        img = self.background.copy()
+        width, height = self.size
+        if self.gt is not None and self.gt_rows is not None:
+            rows = self.gt_rows[f - 1]
+            boxes = self.gt.boxes[rows]
+            for k in np.argsort(boxes[:, 3], kind="stable"):  # farthest (smallest) first
+                _draw_person(img, boxes[k], cv2)
+            if self.show_gt_boxes:
+                for box in boxes:
+                    x0, y0, x1, y1 = _int_box(box, width, height)
+                    cv2.rectangle(img, (x0, y0), (x1, y1), _GT_BGR, 1)
+        rows = self.track_rows[f - 1]
+        ids = self.tracks.ids[rows]
+        boxes = self.tracks.boxes[rows]
+        speaks = self.speaking[rows]
+        font = cv2.FONT_HERSHEY_SIMPLEX
+        for tid, box, talk in zip(ids.tolist(), boxes, speaks.tolist(), strict=True):
+            colour = self.colours[tid]
+            x0, y0, x1, y1 = _int_box(box, width, height)
+            cv2.rectangle(img, (x0, y0), (x1, y1), colour, lay.box_speaking if talk else lay.box)
+            text = f"{tid} speaking" if talk else f"{tid}"
+            (tw, th), base = cv2.getTextSize(text, font, lay.font_scale, lay.thick)
+            tag_h = th + base + lay.pad
+            ty = y0 - tag_h if y0 - tag_h >= 0 else y1  # above the box, or below if no room
+            cv2.rectangle(img, (x0, ty), (x0 + tw + 2 * lay.pad, ty + tag_h), colour, -1)
+            cv2.putText(
+                img,
+                text,
+                (x0 + lay.pad, ty + th + lay.pad // 2),
+                font,
+                lay.font_scale,
+                _text_colour(colour),
+                lay.thick,
+                cv2.LINE_AA,
+            )
+            if talk:
+                r = lay.bubble
+                _draw_bubble(img, x1 + r + lay.pad + 2, y0 + r, r, colour, cv2)
+        self._header(img, f)
+        if self.legend is not None:
+            panel, alpha = self.legend
+            _blend(img, lay.pad, img.shape[0] - panel.shape[0] - lay.pad, panel, alpha)
+        return img
+
+    def _header(self, img: np.ndarray, f: int) -> None:
+        cv2, lay = self.cv2, self.lay
+        font = cv2.FONT_HERSHEY_SIMPLEX
+        text = f"frame {f}/{self.n_frames}   t = {(f - 1) / self.fps:6.2f} s"
+        (tw, th), base = cv2.getTextSize(text, font, lay.font_scale, lay.thick)
+        band_h = th + base + 2 * lay.pad
+        band = img[:band_h]
+        band[:] = (band.astype(np.float32) * 0.45 + 0.5).astype(np.uint8)  # darken
+        y = lay.pad + th
+        cv2.putText(
+            img, text, (2 * lay.pad, y), font, lay.font_scale, _WHITE, lay.thick, cv2.LINE_AA
+        )
+        if self.title:
+            (tw2, _), _ = cv2.getTextSize(self.title, font, lay.font_scale, lay.thick)
+            x = max(img.shape[1] - tw2 - 2 * lay.pad, 2 * lay.pad + tw + 4 * lay.pad)
+            cv2.putText(
+                img, self.title, (x, y), font, lay.font_scale, _WHITE, lay.thick, cv2.LINE_AA
+            )
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def _check_inputs(
+    tracks: MOTData,
+    speaking: np.ndarray | Sequence[bool] | None,
+    image_size: Sequence[int],
+    fps: float,
+    n_frames: int | None,
+    gt: MOTData | None,
+) -> tuple[np.ndarray, tuple[int, int], float, int]:
+    if not isinstance(tracks, MOTData):
+        raise TypeError(f"tracks must be MOTData, got {type(tracks).__name__}")
+    if gt is not None and not isinstance(gt, MOTData):
+        raise TypeError(f"gt must be MOTData or None, got {type(gt).__name__}")
+    if speaking is None:
+        talk = np.zeros(len(tracks), dtype=bool)
+    else:
+        talk = np.asarray(speaking)
+        if talk.shape != (len(tracks),):
+            raise ValueError(
+                f"speaking must have shape ({len(tracks)},), one flag per row of tracks, "
+                f"got {talk.shape}"
+            )
+        if talk.dtype != bool:
+            raise TypeError(f"speaking must be a boolean array, got dtype {talk.dtype}")
+    size = _image_size(image_size)
+    if isinstance(fps, bool) or not isinstance(fps, int | float | np.number):
+        raise TypeError(f"fps must be a number, got {type(fps).__name__}")
+    if not (math.isfinite(fps) and 0 < fps <= 1000):
+        raise ValueError(f"fps must be in (0, 1000] frames per second, got {fps!r}")
+    last = max(tracks.n_frames, 0 if gt is None else gt.n_frames)
+    if n_frames is None:
+        if last == 0:
+            raise ValueError("n_frames: tracks and gt are empty; give the number of frames")
+        n = last
+    else:
+        if isinstance(n_frames, bool) or not isinstance(n_frames, int | np.integer):
+            raise TypeError(f"n_frames must be an integer, got {type(n_frames).__name__}")
+        n = int(n_frames)
+        if n < 1:
+            raise ValueError(f"n_frames must be >= 1, got {n}")
+        if last > n:
+            raise ValueError(f"n_frames is {n} but tracks / gt have rows up to frame {last}")
+    return talk, size, float(fps), n
+
+
+def _renderer(
+    tracks: MOTData,
+    speaking: np.ndarray | Sequence[bool] | None,
+    image_size: Sequence[int],
+    fps: float,
+    n_frames: int | None,
+    gt: MOTData | None,
+    camera: PinholeCamera | None,
+    room_dims: Sequence[float] | np.ndarray | None,
+    show_gt_boxes: bool,
+    legend: bool,
+    title: str | None,
+) -> _Renderer:
+    talk, size, fps, n = _check_inputs(tracks, speaking, image_size, fps, n_frames, gt)
+    if not isinstance(show_gt_boxes, bool) or not isinstance(legend, bool):
+        raise TypeError("show_gt_boxes and legend must be booleans")
+    if title is not None and not isinstance(title, str):
+        raise TypeError(f"title must be a string or None, got {type(title).__name__}")
+    return _Renderer(
+        tracks, talk, size, fps, n, gt, camera, _room_dims(room_dims), show_gt_boxes, legend, title
+    )
+
+
+def render_overlay_frames(
+    tracks: MOTData,
+    speaking: np.ndarray | Sequence[bool] | None,
+    image_size: Sequence[int],
+    fps: float,
+    *,
+    n_frames: int | None = None,
+    gt: MOTData | None = None,
+    camera: PinholeCamera | None = None,
+    room_dims: Sequence[float] | np.ndarray | None = None,
+    show_gt_boxes: bool = True,
+    legend: bool = True,
+    title: str | None = None,
+) -> Iterator[np.ndarray]:
+    """The frames of :func:`render_overlay_video`, one at a time (the inputs are checked and
+    the background drawn before the first one is asked for).
+
+    Parameters are those of :func:`render_overlay_video`.
+
+    Returns
+    -------
+    iterator of ndarray (height', width', 3) uint8
+        BGR frames ``1, ..., n_frames``; ``height'`` and ``width'`` are ``height`` and
+        ``width`` rounded up to even numbers.
+    """
+    r = _renderer(
+        tracks,
+        speaking,
+        image_size,
+        fps,
+        n_frames,
+        gt,
+        camera,
+        room_dims,
+        show_gt_boxes,
+        legend,
+        title,
+    )
+    return (r.frame(f) for f in range(1, r.n_frames + 1))
+
+
+def render_overlay_video(
+    path: str | Path,
+    tracks: MOTData,
+    speaking: np.ndarray | Sequence[bool] | None,
+    image_size: Sequence[int],
+    fps: float,
+    *,
+    n_frames: int | None = None,
+    gt: MOTData | None = None,
+    camera: PinholeCamera | None = None,
+    room_dims: Sequence[float] | np.ndarray | None = None,
+    codec: str | None = None,
+    show_gt_boxes: bool = True,
+    legend: bool = True,
+    title: str | None = None,
+    progress: bool = False,
+) -> Path:
+    """Write the video of the tracks and their speaking status over the rendered room.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``.mp4`` or ``.webm`` file (:data:`VIDEO_CODECS`); its folder is created if needed.
+    tracks : MOTData
+        Tracked head boxes ``(left, top, width, height)``, 1-based frames, one id per track
+        (e.g. :attr:`AVSceneResult.tracks <avtrack.tracking.vavit.AVSceneResult>`).
+    speaking : ndarray (len(tracks),) bool or None
+        Whether the track of each row speaks at that frame (``AVSceneResult.speaking``);
+        None: nobody speaks.
+    image_size : (int, int)
+        ``(width, height)`` of the camera image, pixels.
+    fps : float
+        Frame rate; frame ``f`` is at time ``(f - 1) / fps``.
+    n_frames : int, optional
+        Number of frames (default: the last frame of ``tracks`` and ``gt``).
+    gt : MOTData, optional
+        Ground-truth head boxes: drawn as people (and thin grey boxes, ``show_gt_boxes``).
+    camera : PinholeCamera, optional
+        The camera (``camera.json``), to render the room in perspective; its image size must be
+        ``image_size``.
+    room_dims : ndarray (3,), optional
+        Room size in metres (``scene.yaml`` ``room.dims``), for the walls.
+    codec : str, optional
+        Four-character code overriding the suffix's default.
+    show_gt_boxes : bool
+        Outline the ground-truth boxes in thin grey.
+    legend : bool
+        Track colours and symbols, bottom left.
+    title : str, optional
+        Written at the top right of each frame.
+    progress : bool
+        Show a progress bar (tqdm, on stderr).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    ValueError
+        Unknown suffix, bad sizes or shapes, frames beyond ``n_frames``.
+    TypeError
+        Arguments of the wrong type (``speaking`` not boolean, ``tracks`` not MOTData, ...).
+    RuntimeError
+        OpenCV cannot open an encoder for ``codec``. Nothing is left at ``path`` then, nor
+        after any other failure.
+    """
+    import cv2
+    from tqdm import tqdm
+
+    path = Path(path)
+    fourcc = video_codec(path, codec)
+    r = _renderer(
+        tracks,
+        speaking,
+        image_size,
+        fps,
+        n_frames,
+        gt,
+        camera,
+        room_dims,
+        show_gt_boxes,
+        legend,
+        title,
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    writer = None
+    try:
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*fourcc), r.fps, r.out_size)
+        if not writer.isOpened():
+            raise RuntimeError(
+                f"OpenCV {cv2.__version__} cannot open a {fourcc!r} video writer for {path} "
+                f"(codecs that work with opencv-python-headless: "
+                f"{', '.join(f'{v!r} for {k}' for k, v in VIDEO_CODECS.items())})"
+            )
+        for f in tqdm(
+            range(1, r.n_frames + 1), unit="frame", desc=path.name, disable=not progress
+        ):
+            writer.write(r.frame(f))
+        writer.release()
+        writer = None
+        if tmp.stat().st_size == 0:
+            raise RuntimeError(f"OpenCV wrote an empty video for {path} (codec {fourcc!r})")
+        os.replace(tmp, path)
+    except BaseException:
+        if writer is not None:
+            writer.release()
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+        raise
+    return path
+
+
+def render_scene_video(
+    scene: str | Path | SceneInputs,
+    result: AVSceneResult,
+    path: str | Path,
+    *,
+    ground_truth: bool = True,
+    codec: str | None = None,
+    show_gt_boxes: bool = True,
+    legend: bool = True,
+    title: str | None = None,
+    progress: bool = False,
+) -> Path:
+    """Video of a tracker's result on a scene directory (:mod:`avtrack.simulate.scene`).
+
+    The room comes from ``camera.json`` and ``scene.yaml`` (``room.dims``), the people from
+    ``gt/gt.txt`` (when present and ``ground_truth``), the tracks and speaking flags from
+    ``result``.
+
+    Parameters
+    ----------
+    scene : str, Path or SceneInputs
+        The scene directory, or its inputs from :func:`avtrack.tracking.vavit.load_scene`.
+    result : AVSceneResult
+        From :func:`avtrack.tracking.vavit.track_scene` on that scene.
+    path : str or Path
+        ``.mp4`` or ``.webm`` destination.
+    ground_truth : bool
+        Draw the ground-truth people (and, with ``show_gt_boxes``, their boxes).
+    codec, show_gt_boxes, legend, progress
+        As in :func:`render_overlay_video`.
+    title : str, optional
+        Default: the scenario's name.
+
+    Returns
+    -------
+    Path
+    """
+    import json
+
+    from avtrack.errors import InputError
+    from avtrack.io.mot import read_mot
+    from avtrack.tracking.vavit import AVSceneResult, SceneInputs, load_scene
+
+    if not isinstance(result, AVSceneResult):
+        raise TypeError(f"result must be an AVSceneResult, got {type(result).__name__}")
+    if isinstance(scene, str | Path):
+        scene = load_scene(scene)
+    if not isinstance(scene, SceneInputs):
+        raise TypeError(
+            f"scene must be a scene directory or SceneInputs, got {type(scene).__name__}"
+        )
+    if tuple(result.image_size) != tuple(scene.image_size):
+        raise ValueError(
+            f"result image size {tuple(result.image_size)} does not match the scene's "
+            f"{tuple(scene.image_size)}"
+        )
+    cam_path = scene.path / "camera.json"
+    try:
+        camera = PinholeCamera.from_json(json.loads(cam_path.read_text()), cam_path)
+    except (OSError, json.JSONDecodeError) as exc:
+        raise InputError(f"cannot read the camera: {exc}", cam_path) from None
+    gt_path = scene.path / "gt" / "gt.txt"
+    gt = read_mot(gt_path, kind="gt") if ground_truth and gt_path.is_file() else None
+    room = scene.scenario["room"]["dims"] if scene.scenario else None
+    if title is None and scene.scenario:
+        title = str(scene.scenario.get("name") or "") or None
+    n_frames = max(result.n_frames, 0 if gt is None else gt.n_frames)
+    return render_overlay_video(
+        path,
+        result.tracks,
+        result.speaking,
+        scene.image_size,
+        result.fps,
+        n_frames=n_frames,
+        gt=gt,
+        camera=camera,
+        room_dims=room,
+        codec=codec,
+        show_gt_boxes=show_gt_boxes,
+        legend=legend,
+        title=title,
+        progress=progress,
+    )
