@@ -21,6 +21,7 @@ COMMAND_MODULES = (
     "simulate",
     "localize",
     "track_audio",
+    "stream",
     "track_av",
     "robot_sim",
     "track_phd",

@@ -126,21 +126,32 @@ class DOATable:
         return DOATable(*(getattr(self, name)[mask] for name in _FIELDS))
 
 
-def write_doa_csv(path: str | Path, table: DOATable) -> None:
-    """Write ``table`` atomically: header, then one row per estimate in table order.
+def format_doa_row(
+    frame: int, time_s: float, track_id: int, azimuth_deg: float, elevation_deg: float,
+    weight: float, active: bool,
+) -> str:
+    """One CSV line (with its newline) as :func:`write_doa_csv` writes it: angles rounded to 3
+    decimals (an azimuth that rounds to −180 is written as 180), the time to 4 decimals, the
+    weight with 6 significant digits."""
+    az = wrap_azimuth(round(float(azimuth_deg), 3))
+    el = round(float(elevation_deg), 3)
+    return f"{frame},{time_s:.4f},{track_id},{az:.3f},{el:.3f},{weight:.6g},{int(active)}\n"
 
-    Angles are rounded to 3 decimals (an azimuth that rounds to −180 is written as 180),
-    times to 4 decimals; weights with 6 significant digits.
-    """
+
+def write_doa_csv(path: str | Path, table: DOATable) -> None:
+    """Write ``table`` atomically: header, then one row per estimate in table order
+    (:func:`format_doa_row`)."""
     if not isinstance(table, DOATable):
         raise TypeError(f"write_doa_csv: table must be a DOATable, got {type(table).__name__}")
-    az = wrap_azimuth(np.round(table.azimuth_deg, 3))
-    el = np.round(table.elevation_deg, 3)
     rows = [DOA_HEADER + "\n"]
-    for f, t, i, a, e, w, on in zip(
-        table.frames, table.time_s, table.ids, az, el, table.weight, table.active, strict=True
-    ):
-        rows.append(f"{f},{t:.4f},{i},{a:.3f},{e:.3f},{w:.6g},{int(on)}\n")
+    rows += [
+        format_doa_row(*row)
+        for row in zip(
+            table.frames.tolist(), table.time_s.tolist(), table.ids.tolist(),
+            table.azimuth_deg.tolist(), table.elevation_deg.tolist(), table.weight.tolist(),
+            table.active.tolist(), strict=True,
+        )
+    ]
     with atomic_write(path) as fh:
         fh.writelines(rows)
 
