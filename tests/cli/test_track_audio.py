@@ -112,7 +112,7 @@ def test_localizes_and_tracks_a_recording(tmp_path, capsys):
         (("rec.wav", "--doa", "doa.csv"), "not both"),
         (("--doa", "missing.csv"), "file not found"),
         (("--doa", "doa.csv", "--step", "0"), "--step must be >= 1"),
-        (("--doa", "doa.csv", "--config", "bad.yaml"), "unknown gauss tracker parameter"),
+        (("--doa", "doa.csv", "--config", "bad.yaml"), "bad.yaml: sigma: unknown field"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(doa_files, tmp_path, capsys, monkeypatch, args, message):

@@ -67,7 +67,7 @@ def test_track_av_bad_input(main, tmp_path, capsys):
     cfg = tmp_path / "cfg.yaml"
     cfg.write_text("sigma: 3\n")
     assert main(["track-av", str(scene_dir), "-o", out, "--config", str(cfg)]) == 2
-    assert "unknown VAVIT parameter" in capsys.readouterr().err
+    assert "cfg.yaml: sigma: unknown field (allowed: " in capsys.readouterr().err
     # a scene whose audio has another number of channels than the mapping's array
     other = tmp_path / "stereo"
     shutil.copytree(scene_dir, other)

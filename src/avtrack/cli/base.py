@@ -1,13 +1,33 @@
-"""Sub-command registry for the ``avtrack`` CLI.
+"""Sub-command registry for the ``avtrack`` CLI, and what every sub-command shares.
 
 Each sub-command module defines ``register(subparsers)`` that adds its parser and sets
 ``func`` (a callable ``args -> int`` exit status) with ``parser.set_defaults(func=...)``.
 Modules are listed in :data:`avtrack.cli.main.COMMAND_MODULES`.
+
+``--config FILE.yaml`` comes in two kinds, with one error wording (that of the scenario and
+suite files: ``FILE: a.b: what is wrong``):
+
+* a library config dataclass (``OVBTConfig``, ``PHDConfig`` ...): :func:`load_config` reads
+  the file and :func:`build_config` checks it field by field against the dataclass;
+* the command's own options (``demo``, ``simulate``, ``eval``, ``bench``):
+  :func:`add_config_option` adds ``--config`` whose keys are the options' names.
+
+In both, options given on the command line override the file, and the file is checked before
+any input is read, so a bad file fails at once.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import functools
+import types
+import typing
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from avtrack.errors import InputError
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
@@ -33,8 +53,6 @@ def read_config_mapping(path, what: str) -> dict:
     """
     import yaml
 
-    from avtrack.errors import InputError
-
     if not path.is_file():
         raise InputError("config file not found", path)
     try:
@@ -46,3 +64,301 @@ def read_config_mapping(path, what: str) -> dict:
     if not isinstance(loaded, dict):
         raise InputError(f"expected a mapping of {what}", path)
     return loaded
+
+
+# -- config dataclasses -------------------------------------------------------------------
+def _show(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _unknown(allowed) -> str:
+    return f"unknown field (allowed: {', '.join(sorted(allowed))})"
+
+
+def _number_problem(value: Any) -> str:
+    hint = ""
+    if isinstance(value, str):
+        try:
+            float(value)
+            hint = " (YAML reads 1e-3 as text: write 1.0e-3)"
+        except ValueError:
+            pass
+    return f"expected a number, got {_show(value)}{hint}"
+
+
+def _check_value(annotation: Any, value: Any, base: Any, field: str, path) -> Any:
+    """``value`` checked against a field's type annotation; returns what the dataclass gets.
+
+    Lists become tuples for tuple fields; a mapping for a dataclass field overrides the
+    fields of ``base`` (the current value of that field). Annotations not handled here are
+    passed through unchecked: the dataclass's own validation sees them.
+    """
+    origin = typing.get_origin(annotation)
+    args = typing.get_args(annotation)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        options = [a for a in args if a is not type(None)]
+        if len(options) == 1:
+            return _check_value(options[0], value, base, field, path)
+        return value
+    if dataclasses.is_dataclass(annotation):
+        if not isinstance(value, dict):
+            what = f"a mapping of {annotation.__name__} fields"
+            raise InputError(f"{field}: expected {what}, got {_show(value)}", path)
+        start = base if isinstance(base, annotation) else annotation
+        return build_config(start, value, path, field)
+    if annotation is bool:
+        if not isinstance(value, bool):
+            raise InputError(f"{field}: expected true or false, got {_show(value)}", path)
+        return value
+    if annotation is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"{field}: expected an integer, got {_show(value)}", path)
+        return value
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputError(f"{field}: {_number_problem(value)}", path)
+        return value
+    if annotation is str:
+        if not isinstance(value, str):
+            raise InputError(f"{field}: expected a string, got {_show(value)}", path)
+        return value
+    if origin is tuple and args:
+        items = list(args[:1]) if len(args) == 2 and args[1] is Ellipsis else list(args)
+        if not isinstance(value, list | tuple) or (
+            args[-1] is not Ellipsis and len(value) != len(items)
+        ):
+            size = "a list" if args[-1] is Ellipsis else f"a list of {len(items)} values"
+            raise InputError(f"{field}: expected {size}, got {_show(value)}", path)
+        kinds = items * len(value) if args[-1] is Ellipsis else items
+        return tuple(
+            _check_value(kind, v, None, f"{field}[{i}]", path)
+            for i, (kind, v) in enumerate(zip(kinds, value, strict=True))
+        )
+    return value
+
+
+def build_config(base: Any, values: Mapping, path: str | Path | None = None, prefix: str = ""):
+    """A config dataclass from ``base`` with the fields in ``values`` replaced, checked one by one.
+
+    Parameters
+    ----------
+    base : dataclass instance or dataclass type
+        What the unlisted fields keep (a type: its defaults).
+    values : mapping
+        Field name -> value, as read from YAML. A nested dataclass field takes a mapping that
+        overrides the fields of ``base``'s value (``visual: {birth_frames: 3}`` keeps the
+        other fields of ``base.visual``). Types follow the annotations: ``bool`` true/false,
+        ``int`` an integer, ``float`` a number, ``str`` a string, ``X | None`` also null,
+        ``tuple[...]`` a list of that length.
+    path : str or Path, optional
+        The file ``values`` came from, named in errors.
+    prefix : str
+        Field path of ``base`` inside the file (for nested dataclasses).
+
+    Raises
+    ------
+    InputError
+        ``FILE: a.b: what is wrong`` for an unknown field or a value of the wrong type;
+        ``FILE: [a: ]message`` for a value the dataclass's own validation rejects (its message
+        names the class and field).
+    """
+    cls = base if isinstance(base, type) else type(base)
+    where = f"{prefix}." if prefix else ""
+    if not isinstance(values, Mapping):
+        what = f"a mapping of {cls.__name__} fields"
+        raise InputError(f"{prefix or 'config'}: expected {what}, got {_show(values)}", path)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(str(k) for k in values if k not in fields)
+    if unknown:
+        raise InputError(f"{where}{unknown[0]}: {_unknown(fields)}", path)
+    hints = typing.get_type_hints(cls)
+    current = None if isinstance(base, type) else base
+    changes = {
+        name: _check_value(
+            hints.get(name),
+            value,
+            None if current is None else getattr(current, name),
+            f"{where}{name}",
+            path,
+        )
+        for name, value in values.items()
+    }
+    try:
+        return cls(**changes) if current is None else dataclasses.replace(current, **changes)
+    except (TypeError, ValueError) as exc:
+        raise InputError(f"{where[:-1]}: {exc}" if prefix else str(exc), path) from None
+
+
+def _nested(flat: Mapping[str, Any]) -> dict:
+    """``{"a.b": 1}`` -> ``{"a": {"b": 1}}``."""
+    out: dict = {}
+    for key, value in flat.items():
+        *parents, name = key.split(".")
+        node = out
+        for p in parents:
+            node = node.setdefault(p, {})
+        node[name] = value
+    return out
+
+
+def load_config(
+    path: Path | None,
+    base: Any,
+    what: str | None = None,
+    overrides: Mapping[str, Any] | None = None,
+):
+    """The config dataclass of a ``--config`` file, with command-line overrides on top.
+
+    Parameters
+    ----------
+    path : Path or None
+        The YAML file (None: ``base`` as it is).
+    base : dataclass instance or dataclass type
+        Defaults (see :func:`build_config`).
+    what : str, optional
+        What the file holds, for the "expected a mapping of ..." error (default
+        ``"<Class> fields"``).
+    overrides : mapping, optional
+        Values of command-line options by dotted field path (``{"tracker.control":
+        "exact"}``); None values (option not given) are skipped. They win over the file.
+    """
+    cls = base if isinstance(base, type) else type(base)
+    config = base() if isinstance(base, type) else base
+    if path is not None:
+        values = read_config_mapping(path, what or f"{cls.__name__} fields")
+        config = build_config(config, values, path)
+    given = {k: v for k, v in (overrides or {}).items() if v is not None}
+    if given:
+        config = build_config(config, _nested(given))
+    return config
+
+
+# -- options from a file --------------------------------------------------------------------
+class _Unset:
+    """Default of an option that ``--config`` may set: not given on the command line."""
+
+    def __init__(self, value: Any):
+        self.value = value
+
+    def __repr__(self) -> str:
+        return repr(self.value)
+
+    def __str__(self) -> str:  # ``%(default)s`` in help texts
+        return str(self.value)
+
+
+#: Action kinds a file can set: a value, or a switch.
+_SETTABLE = (argparse._StoreAction, argparse._StoreTrueAction, argparse._StoreFalseAction)
+#: Options that are not settings: what to print, how much to print, the file itself.
+_NOT_SETTINGS = ("help", "version", "quiet", "verbose", "config")
+
+
+def _settings(parser: argparse.ArgumentParser, exclude) -> dict[str, argparse.Action]:
+    out = {}
+    for action in parser._actions:
+        if action.dest in _NOT_SETTINGS or action.dest in exclude or action.required:
+            continue
+        if not action.option_strings and action.nargs != "?":
+            continue  # required positionals: inputs, always on the command line
+        if isinstance(action, _SETTABLE):
+            out[action.dest] = action
+    return out
+
+
+def _option_value(action: argparse.Action, value: Any, field: str, path) -> Any:
+    """A YAML value for an option, checked as the command line would check its text."""
+    if isinstance(action, argparse._StoreTrueAction | argparse._StoreFalseAction):
+        if not isinstance(value, bool):
+            raise InputError(f"{field}: expected true or false, got {_show(value)}", path)
+        return value
+    kind = action.type
+    if kind is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise InputError(f"{field}: expected an integer, got {_show(value)}", path)
+    elif kind is float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise InputError(f"{field}: {_number_problem(value)}", path)
+        value = float(value)  # as from the command line
+    elif kind is None or kind is str or kind is Path:
+        if not isinstance(value, str) or not value:
+            what = "a path" if kind is Path else "a string"
+            raise InputError(f"{field}: expected {what}, got {_show(value)}", path)
+        value = Path(value) if kind is Path else value
+    elif callable(kind):
+        if not isinstance(value, str):
+            value = str(value)
+        try:
+            value = kind(value)
+        except (TypeError, ValueError, argparse.ArgumentTypeError) as exc:
+            raise InputError(f"{field}: {exc}", path) from None
+    if action.choices is not None and value not in action.choices:
+        raise InputError(
+            f"{field}: expected one of {', '.join(map(str, action.choices))}, got "
+            f"{_show(value)}",
+            path,
+        )
+    return value
+
+
+def add_config_option(parser: argparse.ArgumentParser, exclude: tuple[str, ...] = ()) -> None:
+    """Add ``--config FILE.yaml`` holding values of this parser's options.
+
+    A key is an option's long name with ``_`` for ``-`` (``--n-frames 10`` is
+    ``n_frames: 10``, ``--mot`` is ``mot: true``); an optional positional is a key too. Values
+    mean what they mean on the command line (paths relative to the working directory).
+    Options given on the command line override the file. Not settable: required options,
+    ``--quiet``/``--verbose``, and the ``exclude`` destinations (actions such as ``--print``).
+
+    Call it last in ``register``, after ``set_defaults(func=...)``: it wraps ``func`` so that
+    the command sees the merged options, and the file is checked before the command starts.
+    """
+    func = parser.get_default("func")
+    if func is None:
+        raise RuntimeError("add_config_option: call parser.set_defaults(func=...) first")
+    settings = _settings(parser, exclude)
+    for action in settings.values():
+        action.default = _Unset(action.default)
+    keys = ", ".join(sorted(settings))
+    parser.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE.yaml",
+        help=f"option values from a YAML mapping (keys: {keys}); options given on the "
+        "command line win",
+    )
+
+    @functools.wraps(func)
+    def run_with_config(args: argparse.Namespace) -> int:
+        apply_config_file(args, settings)
+        return func(args)
+
+    parser.set_defaults(func=run_with_config)
+
+
+def apply_config_file(args: argparse.Namespace, settings: Mapping[str, argparse.Action]) -> None:
+    """Fill the options not given on the command line from ``args.config``, else their
+    defaults (in place). Every key of the file is checked, overridden or not."""
+    path = args.config
+    values = {} if path is None else read_config_mapping(path, "option values")
+    unknown = sorted(str(k) for k in values if k not in settings)
+    if unknown:
+        raise InputError(f"{unknown[0]}: {_unknown(settings)}", path)
+    checked = {k: _option_value(settings[k], v, k, path) for k, v in values.items()}
+    for dest in settings:
+        current = getattr(args, dest)
+        if isinstance(current, _Unset):
+            setattr(args, dest, checked.get(dest, current.value))
+
+
+__all__ = [
+    "HelpFormatter",
+    "add_common",
+    "add_config_option",
+    "apply_config_file",
+    "build_config",
+    "load_config",
+    "read_config_mapping",
+]

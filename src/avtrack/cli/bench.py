@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import argparse
-import sys
 import time
 from pathlib import Path
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, add_config_option
 from avtrack.errors import InputError
 
 EXAMPLES = """\
@@ -15,6 +15,7 @@ examples:
   avtrack bench smoke -o results/smoke                  # built-in suite, this process
   avtrack bench suite.yaml -o results/ --workers 2      # local processes
   avtrack bench suite.yaml -o results/ --scheduler tcp://10.0.0.5:8786   # a Dask cluster
+  avtrack bench suite.yaml -o results/ --config bench.yaml   # workers / scheduler from a file
 
 A suite file:
   name: tud-and-walkout
@@ -25,6 +26,10 @@ A suite file:
     - task: localize
       inputs: ["locata-like:0"]             # NAME:SEED[:SECONDS] = a simulated scene
       params: {method: [dprtf-eg, srp-phat]}
+
+The --config YAML holds option values by name, e.g.:
+  workers: 4
+  scheduler: tcp://10.0.0.5:8786
 
 Writes OUT/results.csv and OUT/results.md (one row per input x parameter combination). The
 rows are the same whichever backend ran them (only the 'seconds' column differs).
@@ -47,6 +52,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_common(p)
     p.set_defaults(func=run)
+    add_config_option(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -56,16 +62,15 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--workers must be >= 1, got {args.workers}")
     name, items = load_suite(args.suite)
     t0 = time.perf_counter()
-
-    def progress(done: int, total: int) -> None:
-        if not args.quiet and sys.stderr.isatty():
-            bar = "#" * (30 * done // total)
-            print(f"\r{name}: [{bar:<30}] {done}/{total}", end="", file=sys.stderr)
-            if done == total:
-                print(file=sys.stderr)
-
     try:
-        rows = run_items(items, workers=args.workers, scheduler=args.scheduler, progress=progress)
+        with progress.bar(len(items), name, "run", args.quiet) as bar:
+
+            def advance(done: int, total: int) -> None:
+                bar.update(done - bar.n)
+
+            rows = run_items(
+                items, workers=args.workers, scheduler=args.scheduler, progress=advance
+            )
     except OSError as exc:
         raise InputError(f"cannot reach the scheduler {args.scheduler}: {exc}") from None
     args.output.mkdir(parents=True, exist_ok=True)

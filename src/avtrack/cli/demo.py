@@ -14,7 +14,8 @@ import json
 import time
 from pathlib import Path
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, add_config_option
 from avtrack.io.base import atomic_write
 from avtrack.io.datasets import find_shared_data
 from avtrack.io.mot import read_mot, write_mot
@@ -24,9 +25,16 @@ from avtrack.tracking.ovbt import track_mot
 EXAMPLES = """\
 examples:
   avtrack demo                  # simulated meeting; report in ./avtrack-demo/index.html
-  avtrack demo -o /tmp/demo --seed 3 --duration 30
+  avtrack demo -o /tmp/demo --seed 3 --duration 30 --people 4
+  avtrack demo --config demo.yaml --seed 5    # the file's settings, another seed
   avtrack demo --mot            # the real MOT15 TUD-Campus sequence (needs ../shared/data)
   AVTRACK_SHARED_DATA=/data/shared/data avtrack demo --mot
+
+The --config YAML holds option values by name, e.g.:
+  output: runs/demo
+  seed: 3
+  duration: 30
+  people: 2
 """
 
 SEQUENCE = "TUD-Campus"
@@ -48,8 +56,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, metavar="S", help="scene seed (default 0)")
     p.add_argument("--duration", type=float, default=20.0, metavar="SECONDS",
                    help="scene length (default 20)")
+    p.add_argument("--people", type=int, default=3, choices=(2, 3, 4), metavar="N",
+                   help="people in the meeting: 2, 3 or 4 (default 3)")
     add_common(p)
     p.set_defaults(func=run)
+    add_config_option(p)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -61,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
     dets = read_mot(seq / "det" / "det.txt", kind="det")
     gt = read_mot(seq / "gt" / "gt.txt", kind="gt")
     t0 = time.perf_counter()
-    res = track_mot(dets, image_size=IMAGE_SIZE, n_frames=gt.n_frames)
+    with progress.activity(f"tracking {gt.n_frames} frames", args.quiet):
+        res = track_mot(dets, image_size=IMAGE_SIZE, n_frames=gt.n_frames)
     elapsed = time.perf_counter() - t0
     scores = evaluate_mot(gt, res, benchmark="MOT15")
     out = Path(args.output)

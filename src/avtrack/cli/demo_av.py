@@ -9,6 +9,7 @@ import time
 
 import numpy as np
 
+from avtrack.cli import progress
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 
@@ -23,18 +24,19 @@ STEPS = (
 )
 
 
-def demo_scenario(seed: int, duration: float) -> dict:
+def demo_scenario(seed: int, duration: float, people: int = 3) -> dict:
     """The default meeting: 3 people in front of a NAO-like 4-mic array (free field) and camera.
 
     The named ``meeting`` scene draws 2-4 people; the first of the seeds ``seed, seed + 1000,
-    ...`` that gives three people is used, so the demo scene depends on ``seed`` only.
+    ...`` that gives ``people`` people is used, so the demo scene depends on ``seed`` (and
+    ``people``) only.
     """
     from avtrack.simulate.library import named_scenario
     from avtrack.simulate.scenario import validate_scenario
 
     for k in range(100):
         raw = named_scenario("meeting", seed + 1000 * k, duration)
-        if len(raw["people"]) == 3:
+        if len(raw["people"]) == people:
             break
     raw["seed"] = seed
     raw["name"] = "demo-meeting"
@@ -51,6 +53,7 @@ def _progress(step: int, quiet: bool) -> float:
 
 def run_av(args: argparse.Namespace) -> int:
     from avtrack.audio.arrays import load_array
+    from avtrack.cli.localize import localize_signal
     from avtrack.cli.track_av import train_scene_mapping
     from avtrack.io.doa import read_doa_csv
     from avtrack.io.mot import read_mot, write_mot
@@ -71,15 +74,17 @@ def run_av(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise InputError("output exists and is not a directory", out)
     t_start = _progress(0, args.quiet)
-    scene = simulate_scene(demo_scenario(args.seed, args.duration))
+    with progress.activity("rendering the room acoustics", args.quiet):
+        scene = simulate_scene(demo_scenario(args.seed, args.duration, args.people))
     scene_dir = write_scene(scene, out / "scene")
 
     _progress(1, args.quiet)
     inputs = load_scene(scene_dir)
-    mapping = train_scene_mapping(inputs, CALIBRATION_POSITIONS, args.verbose)
+    mapping = train_scene_mapping(inputs, CALIBRATION_POSITIONS, args.verbose, args.quiet)
 
     t0 = _progress(2, args.quiet)
-    res = track_scene(scene_dir, mapping, scene=inputs)
+    with progress.activity(f"tracking {inputs.n_frames} frames", args.quiet):
+        res = track_scene(scene_dir, mapping, scene=inputs)
     t_track = time.perf_counter() - t0
     write_mot(out / "tracks.txt", res.tracks)
     write_rttm(out / "speech.rttm", res.speech)
@@ -87,7 +92,7 @@ def run_av(args: argparse.Namespace) -> int:
     _progress(3, args.quiet)
     array = load_array(scene_dir / "array.json")
     loc = make_localizer("dprtf-eg", array)
-    heat = loc.run(scene.audio)
+    heat = localize_signal(loc, scene.audio, None, args.quiet)
     doa = peak_table(heat, loc.grid, loc.default_threshold)
 
     _progress(4, args.quiet)

@@ -10,7 +10,7 @@ import argparse
 import json
 from pathlib import Path
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli.base import HelpFormatter, add_common, add_config_option
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.mot import read_mot
@@ -19,6 +19,7 @@ from avtrack.metrics.mot import BENCHMARKS, TABLE_COLUMNS, evaluate_mot, format_
 EVAL_EXAMPLES = """\
 examples:
   avtrack eval mot gt/gt.txt results/TUD-Campus.txt
+  avtrack eval doa scene/gt/doa.csv doa.csv --success-deg 10
   avtrack eval mot --help
 """
 
@@ -33,6 +34,12 @@ examples:
   # all scores (IDP, IDR, DetA, AssA, PT ...), or nothing but the JSON file
   avtrack eval mot gt.txt res.txt -v
   avtrack eval mot gt.txt res.txt -q --json scores.json
+
+  # the options from a file (keys: benchmark, n_frames, json), e.g. "benchmark: MOT17"
+  avtrack eval mot MOT17-02/gt/gt.txt MOT17-02.txt --config eval.yaml
+
+Matches need IoU >= 0.5 (CLEAR-MOT, identity) or are averaged over IoU 0.05..0.95 (HOTA), as
+in TrackEval; the threshold is part of the metrics' definitions, not an option.
 """
 
 #: Extra columns printed with ``--verbose``.
@@ -80,6 +87,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     mot.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
     add_common(mot)
     mot.set_defaults(func=run_mot)
+    add_config_option(mot)
 
     doa = tasks.add_parser(
         "doa",
@@ -112,6 +120,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     doa.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
     add_common(doa)
     doa.set_defaults(func=run_doa)
+    add_config_option(doa)
 
 
 DOA_EXAMPLES = """\
@@ -119,6 +128,11 @@ examples:
   avtrack localize scene/audio.wav --array scene/array.json -o doa.csv --floor 0.005
   avtrack eval doa scene/gt/doa.csv doa.csv
   avtrack eval doa scene/gt/doa.csv doa.csv --roc --json scores.json
+
+  # thresholds from a file (keys: json, roc, success_deg, threshold), e.g.
+  #   success_deg: 10
+  #   threshold: 0.05
+  avtrack eval doa scene/gt/doa.csv doa.csv --config doa-eval.yaml
 """
 
 

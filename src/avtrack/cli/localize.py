@@ -10,7 +10,6 @@ Optionally draws the heat map (thesis Fig. 5.2 b–e) and scores the peaks again
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 import time
 from fractions import Fraction
@@ -18,12 +17,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from avtrack.audio.arrays import MicArray, load_array
-from avtrack.audio.dprtf import DPRTFConfig
-from avtrack.audio.noise import NoiseConfig
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
@@ -198,39 +195,23 @@ def read_array_audio(
     return x
 
 
-def _build(cls: type, values: dict, where: str) -> Any:
-    """A (possibly nested) config dataclass from a mapping."""
-    if not isinstance(values, dict):
-        raise TypeError(f"{where}: expected a mapping, got {type(values).__name__}")
-    names = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(values) - names)
-    if unknown:
-        raise TypeError(f"{where}: unknown field(s) {unknown}; expected some of {sorted(names)}")
-    kwargs = dict(values)
-    nested = {"dprtf": DPRTFConfig, "noise": NoiseConfig}
-    for key, sub in nested.items():
-        if key in kwargs and key in names and kwargs[key] is not None:
-            kwargs[key] = _build(sub, kwargs[key], f"{where}.{key}")
-    if "freq_range_hz" in kwargs and isinstance(kwargs["freq_range_hz"], list):
-        kwargs["freq_range_hz"] = tuple(kwargs["freq_range_hz"])
-    return cls(**kwargs)
-
-
 def load_method_config(method: str, path: Path | None) -> Any:
-    """The method's ``Config`` from a YAML file (default parameters without one)."""
-    cls = LOCALIZERS[method].Config
-    if path is None:
-        return cls()
-    if not path.is_file():
-        raise InputError("config file not found", path)
-    try:
-        loaded = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
-    try:
-        return _build(cls, loaded, cls.__name__)
-    except (TypeError, ValueError) as exc:
-        raise InputError(str(exc), path) from None
+    """The method's ``Config`` from a YAML file (default parameters without one); nested
+    ``dprtf:`` / ``noise:`` mappings override the method's default feature settings."""
+    return load_config(path, LOCALIZERS[method].Config)
+
+
+def localize_signal(localizer, x: np.ndarray, block_size: int | None, quiet: bool):
+    """``localizer.run(x, block_size)`` with a progress bar (over the blocks when fed in
+    blocks, elapsed time otherwise: the batch call gives no intermediate progress)."""
+    seconds = x.shape[1] / localizer.fs
+    desc = f"localizing {seconds:.1f} s"
+    if block_size is None:
+        with progress.activity(desc, quiet):
+            return localizer.run(x)
+    n_blocks = -(-x.shape[1] // block_size)
+    with progress.counting(localizer, "process", n_blocks, desc, "block", quiet):
+        return localizer.run(x, block_size)
 
 
 def make_grid(step_deg: float, elevations: str | None) -> DirectionGrid:
@@ -305,8 +286,8 @@ def plot_heatmap(
 
 
 def run(args: argparse.Namespace) -> int:
-    array = load_array(args.array)
     config = load_method_config(args.method, args.config)
+    array = load_array(args.array)
     if args.max_peaks is not None and args.max_peaks < 1:
         raise InputError(f"--max-peaks must be >= 1, got {args.max_peaks}")
     if args.block_size is not None and args.block_size < 1:
@@ -322,7 +303,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(str(exc), args.config) from None
     threshold = localizer.default_threshold if args.threshold is None else args.threshold
     t0 = time.perf_counter()
-    heat = localizer.run(x, args.block_size)
+    heat = localize_signal(localizer, x, args.block_size, args.quiet)
     elapsed = time.perf_counter() - t0
     floor = threshold if args.floor is None else min(args.floor, threshold)
     if args.roc:

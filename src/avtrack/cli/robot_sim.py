@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import argparse
 import math
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.robot.simulate import (
     ROBOT_SCENARIOS,
@@ -27,10 +27,18 @@ examples:
   avtrack robot-sim jump2 -o runs/jump2
   avtrack robot-sim jump3 --seed 4 --no-compensation -o runs/jump3-wo
   avtrack robot-sim follow1 --duration 20 --control exact -o runs/follow1
+  avtrack robot-sim jump2 --config robot.yaml -o runs/jump2-tuned
 
 DIR receives tracks.txt and gt/gt.txt (MOTChallenge, left image) and servo.csv
 (frame,target_id,distance_px: the pursued track and its distance to the image centre).
 Score with:  avtrack eval mot DIR/gt/gt.txt DIR/tracks.txt
+
+The --config YAML holds RobotSimConfig fields; the detector, stereo matching and tracker
+ones under "detector:", "stereo:" and "tracker:" (RobotTrackerConfig), e.g.:
+  gain: 0.3
+  blur_speed: 2.0
+  detector: {miss_rate: 0.2}
+  tracker: {death_frames: 20, control: exact}
 """
 )
 
@@ -66,29 +74,35 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--control",
         choices=("jacobian", "exact"),
-        default="jacobian",
-        help="form of C_tn: first order (eq. 3.45, default) or exact (eq. 3.48)",
+        help="form of C_tn: first order (eq. 3.45, default) or exact (eq. 3.48); "
+        "overrides tracker.control of --config",
+    )
+    p.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE.yaml",
+        help="simulation, detector, stereo and tracker parameters (RobotSimConfig fields)",
     )
     add_common(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    config = load_config(args.config, RobotSimConfig, overrides={"tracker.control": args.control})
     if args.name not in ROBOT_SCENARIOS:
         raise InputError(f"unknown sequence {args.name!r}; built-in: {', '.join(ROBOT_SCENARIOS)}")
     if args.seed < 0:
         raise InputError(f"--seed must be >= 0, got {args.seed}")
     if args.duration is not None and not (math.isfinite(args.duration) and args.duration > 0):
         raise InputError(f"--duration must be a positive number of seconds, got {args.duration}")
-    base = RobotSimConfig()
-    config = replace(base, tracker=replace(base.tracker, control=args.control))
-    result = simulate_robot(
-        args.name,
-        seed=args.seed,
-        compensation=not args.no_compensation,
-        duration_s=args.duration,
-        config=config,
-    )
+    with progress.activity(f"simulating {args.name}", args.quiet):
+        result = simulate_robot(
+            args.name,
+            seed=args.seed,
+            compensation=not args.no_compensation,
+            duration_s=args.duration,
+            config=config,
+        )
     write_robot_sim(result, args.output)
     if not args.quiet:
         from avtrack.metrics.mot import evaluate_mot

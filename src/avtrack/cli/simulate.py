@@ -7,7 +7,8 @@ import sys
 import time
 from pathlib import Path
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, add_config_option
 from avtrack.errors import InputError
 from avtrack.simulate.library import SCENARIOS, named_scenario
 from avtrack.simulate.scenario import (
@@ -30,6 +31,14 @@ examples:
   avtrack simulate meeting --print            # show the scenario YAML, simulate nothing
   avtrack simulate my-scene.yaml -o scenes/mine
   avtrack simulate --help-scenario            # every scenario field, with its default
+  avtrack simulate --config sim.yaml --seed 4 # the file's options, another seed
+
+The --config YAML holds option values by name (SCENARIO included), e.g.:
+  scenario: walkout
+  output: scenes/walkout
+  duration: 30
+  utterances: synthetic
+Scenario fields themselves (room, people, noise ...) go in a scenario YAML file.
 
 The scene directory holds scene.yaml, audio.wav, array.json, camera.json, detections.txt,
 appearance.npy and gt/ (gt.txt, doa.csv, speech.rttm, positions.csv); see the README.
@@ -78,6 +87,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_common(p)
     p.set_defaults(func=run)
+    add_config_option(p, exclude=("print_only", "help_scenario"))
 
 
 def resolve_scenario(args: argparse.Namespace) -> tuple[dict, Path | None]:
@@ -132,7 +142,9 @@ def run(args: argparse.Namespace) -> int:
     from avtrack.simulate.scene import simulate_scene, write_scene
 
     t0 = time.perf_counter()
-    scene = simulate_scene(scenario, scenario_path=path)
+    desc = f"simulating {scenario['duration']:g} s of {scenario['name']}"
+    with progress.activity(desc, args.quiet):
+        scene = simulate_scene(scenario, scenario_path=path)
     write_scene(scene, args.output)
     if not args.quiet:
         dur = scenario["duration"]

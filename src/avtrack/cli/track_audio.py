@@ -17,9 +17,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
@@ -149,21 +149,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def load_tracker_config(name: str, path: Path | None):
     """The tracker's ``Config`` from a YAML file (defaults without one)."""
-    cls = registered_trackers()[name].Config
-    if path is None:
-        return cls()
-    if not path.is_file():
-        raise InputError("config file not found", path)
-    try:
-        loaded = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as exc:
-        raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
-    if not isinstance(loaded, dict):
-        raise InputError(f"expected a mapping of {cls.__name__} fields", path)
-    try:
-        return cls.from_dict(loaded)
-    except (TypeError, ValueError) as exc:
-        raise InputError(str(exc), path) from None
+    return load_config(path, registered_trackers()[name].Config)
 
 
 def observations_from_audio(
@@ -172,7 +158,7 @@ def observations_from_audio(
     """Localize ``args.audio``; returns the tracker's observations, the signal duration and the
     localization time (seconds)."""
     from avtrack.audio.arrays import load_array
-    from avtrack.cli.localize import load_method_config, read_array_audio
+    from avtrack.cli.localize import load_method_config, localize_signal, read_array_audio
     from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer
 
     if args.array is None:
@@ -187,7 +173,7 @@ def observations_from_audio(
     x = read_array_audio(args.audio, array, args.allow_clipping, args.quiet)
     localizer = make_localizer(args.method, array, grid, load_method_config(args.method, None))
     t0 = time.perf_counter()
-    heat = localizer.run(x)
+    heat = localize_signal(localizer, x, None, args.quiet)
     elapsed = time.perf_counter() - t0
     seq = heatmap_observations(heat, grid, args.step, peaks)
     return seq, x.shape[1] / localizer.fs, elapsed
@@ -271,13 +257,13 @@ def plot_tracks(
 
 
 def run(args: argparse.Namespace) -> int:
+    config = load_tracker_config(args.tracker, args.config)
     if args.step < 1:
         raise InputError(f"--step must be >= 1, got {args.step}")
     if args.doa is None and args.audio is None:
         raise InputError("give AUDIO.wav (with --array) or --doa DOA.csv")
     if args.doa is not None and args.audio is not None:
         raise InputError("give either AUDIO.wav or --doa DOA.csv, not both")
-    config = load_tracker_config(args.tracker, args.config)
     truth = read_doa_csv(args.truth) if args.truth is not None else None
     peaks = (args.observations or DEFAULT_OBSERVATIONS.get(args.tracker, "all")) == "peaks"
     hop = HOP_S
@@ -297,7 +283,8 @@ def run(args: argparse.Namespace) -> int:
         source = args.audio.name
     tracker = make_tracker(args.tracker, config, frame_period_s=args.step * hop)
     t0 = time.perf_counter()
-    tracks = tracker.run(seq)
+    with progress.counting(tracker, "step", len(seq), "tracking", "frame", args.quiet):
+        tracks = tracker.run(seq)
     t_track = time.perf_counter() - t0
     write_doa_csv(args.output, tracks)
     if args.plot is not None:

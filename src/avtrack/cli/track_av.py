@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from avtrack.cli.base import HelpFormatter, add_common, read_config_mapping
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.mot import write_mot
 from avtrack.io.rttm import write_rttm
@@ -109,21 +110,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def load_config(path: Path | None, threshold: float | None):
+def load_vavit_config(path: Path | None, threshold: float | None):
+    """VAVITConfig from ``--config`` (``visual:`` overrides the default visual fields), with
+    ``--threshold`` on top."""
     from avtrack.tracking.vavit import VAVITConfig
 
-    values: dict = {}
-    if path is not None:
-        values.update(read_config_mapping(path, "VAVITConfig fields"))
-    if threshold is not None:
-        values["diarization_threshold"] = threshold
-    try:
-        return VAVITConfig.from_dict(values)
-    except (TypeError, ValueError) as exc:
-        raise InputError(str(exc), path) from None
+    return load_config(path, VAVITConfig, overrides={"diarization_threshold": threshold})
 
 
-def train_scene_mapping(scene, n_positions: int, verbose: bool):
+def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = False):
     """Calibrate the scene's room with a simulated loudspeaker and train the mapping."""
     from avtrack.av.calibration import scene_setup, simulate_calibration, train_mapping
 
@@ -134,8 +129,10 @@ def train_scene_mapping(scene, n_positions: int, verbose: bool):
         )
     t0 = time.perf_counter()
     setup = scene_setup(scene.scenario, scene.path / "scene.yaml")
-    calib = simulate_calibration(*setup, n_positions=n_positions, rng=0)
-    mapping = train_mapping(calib, 8, max_iter=50, meta={"scene": scene.path.name})
+    with progress.activity(f"calibrating ({n_positions} loudspeaker positions)", quiet):
+        calib = simulate_calibration(*setup, n_positions=n_positions, rng=0)
+    with progress.activity("training the audio-to-image mapping", quiet):
+        mapping = train_mapping(calib, 8, max_iter=50, meta={"scene": scene.path.name})
     if verbose:
         print(
             f"trained the audio-to-image mapping on {len(calib)} calibration frames "
@@ -149,11 +146,11 @@ def run(args: argparse.Namespace) -> int:
     from avtrack.av.gllim import load_mapping, save_mapping
     from avtrack.tracking.vavit import load_scene, track_scene
 
+    config = load_vavit_config(args.config, args.threshold)
     if not 0 < args.fov_fraction <= 1:
         raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
     if args.calibration_positions < 4:
         raise InputError(f"--calibration-positions must be >= 4, got {args.calibration_positions}")
-    config = load_config(args.config, args.threshold)
     scene = load_scene(args.scene)
     out = args.output
     if out.exists() and not out.is_dir():
@@ -163,20 +160,23 @@ def run(args: argparse.Namespace) -> int:
         if args.mapping is not None:
             mapping = load_mapping(args.mapping)
         else:
-            mapping = train_scene_mapping(scene, args.calibration_positions, not args.quiet)
+            mapping = train_scene_mapping(
+                scene, args.calibration_positions, not args.quiet, args.quiet
+            )
             out.mkdir(parents=True, exist_ok=True)
             save_mapping(out / "mapping.npz", mapping)
     t0 = time.perf_counter()
     try:
-        res = track_scene(
-            args.scene,
-            mapping,
-            config,
-            use_audio=not args.no_audio,
-            fov_fraction=args.fov_fraction,
-            record_precisions=args.plot,
-            scene=scene,
-        )
+        with progress.activity(f"tracking {scene.n_frames} frames", args.quiet):
+            res = track_scene(
+                args.scene,
+                mapping,
+                config,
+                use_audio=not args.no_audio,
+                fov_fraction=args.fov_fraction,
+                record_precisions=args.plot,
+                scene=scene,
+            )
     except InputError:
         raise
     except ValueError as exc:  # e.g. detections or features inconsistent with the scene

@@ -10,7 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from avtrack.cli.base import HelpFormatter, add_common, read_config_mapping
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.datasets import find_seqinfo, read_seqinfo
 from avtrack.io.mot import read_mot, write_mot
@@ -67,17 +68,6 @@ def parse_image_size(text: str) -> tuple[int, int]:
     return int(m[1]), int(m[2])
 
 
-def load_config(path: Path | None, overrides: dict) -> OVBTConfig:
-    values: dict = {}
-    if path is not None:
-        values.update(read_config_mapping(path, "OVBTConfig fields"))
-    values.update({k: v for k, v in overrides.items() if v is not None})
-    try:
-        return OVBTConfig.from_dict(values)
-    except (TypeError, ValueError) as exc:
-        raise InputError(str(exc), path) from None
-
-
 def load_appearance(path: Path, n_rows: int) -> np.ndarray:
     if not path.is_file():
         raise InputError("appearance file not found", path)
@@ -94,8 +84,8 @@ def load_appearance(path: Path, n_rows: int) -> np.ndarray:
 
 
 def run(args: argparse.Namespace) -> int:
+    config = load_config(args.config, OVBTConfig, overrides={"min_score": args.min_score})
     dets = read_mot(args.detections, kind="det")
-    config = load_config(args.config, {"min_score": args.min_score})
     appearance = None if args.appearance is None else load_appearance(args.appearance,
                                                                       len(dets))
     n_frames = None
@@ -113,14 +103,15 @@ def run(args: argparse.Namespace) -> int:
         print(f"avtrack: warning: {args.detections} has no detections; writing empty results",
               file=sys.stderr)
     t0 = time.perf_counter()
+    n = max(dets.n_frames, n_frames or 0)
     try:
-        res = track_mot(dets, appearance, config, image_size, n_frames)
+        with progress.activity(f"tracking {n} frames", args.quiet):
+            res = track_mot(dets, appearance, config, image_size, n_frames)
     except ValueError as exc:
         raise InputError(str(exc), args.detections) from None
     elapsed = time.perf_counter() - t0
     write_mot(args.output, res)
     if not args.quiet:
-        n = max(dets.n_frames, n_frames or 0)
         print(f"tracked {n} frames, {len(np.unique(res.ids))} tracks, {len(res)} boxes "
               f"-> {args.output} ({n / max(elapsed, 1e-9):.0f} frames/s)")
     return 0

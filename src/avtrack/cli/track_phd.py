@@ -8,7 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
-from avtrack.cli.base import HelpFormatter, add_common, read_config_mapping
+from avtrack.cli import progress
+from avtrack.cli.base import HelpFormatter, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
 from avtrack.io.base import atomic_write
@@ -94,16 +95,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def load_config(path: Path | None) -> PHDConfig:
-    if path is None:
-        return PHDConfig()
-    loaded = read_config_mapping(path, "PHDConfig fields")
-    try:
-        return PHDConfig.from_dict(loaded)
-    except (TypeError, ValueError) as exc:
-        raise InputError(str(exc), path) from None
-
-
 def write_tracks(path: Path, rows: np.ndarray) -> None:
     """Rows ``frame, id, x, y`` as CSV with a header, atomically."""
     with atomic_write(path) as fh:
@@ -159,17 +150,18 @@ def plot_tracks(
 
 
 def run(args: argparse.Namespace) -> int:
+    config = load_config(args.config, PHDConfig)
     if not args.folder.is_dir():
         raise InputError("AV16.3 folder not found", args.folder)
     if args.seq < 1:
         raise InputError(f"--seq must be a positive integer, got {args.seq}")
-    config = load_config(args.config)
     seq = load_av163(args.folder, args.seq, args.cam)
     rng = np.random.default_rng([args.seed, args.seq, args.cam])
     visual, used = av163_visual(args.folder, seq, args.visual, rng)
     frames = av163_frames(seq, visual, config.sigma_audio, config.gate)
     tracker = PHD_FILTERS[args.filter](config, seed=args.seed)
-    result = tracker.run(frames)
+    with progress.counting(tracker, "step", len(frames), args.filter, "frame", args.quiet):
+        result = tracker.run(frames)
     write_tracks(args.output, result.rows(seq.frames))
     truth = av163_truth(seq)
     ospa = ospa_sequence(result.positions(), truth, OSPA_CUTOFF, OSPA_ORDER)
