@@ -140,6 +140,14 @@ def _check_value(annotation: Any, value: Any, base: Any, field: str, path) -> An
     return value
 
 
+def _defaults(cls: type) -> Any:
+    """``cls()``, or None for a dataclass with required fields."""
+    try:
+        return cls()
+    except TypeError:
+        return None
+
+
 def build_config(base: Any, values: Mapping, path: str | Path | None = None, prefix: str = ""):
     """A config dataclass from ``base`` with the fields in ``values`` replaced, checked one by one.
 
@@ -175,7 +183,7 @@ def build_config(base: Any, values: Mapping, path: str | Path | None = None, pre
     if unknown:
         raise InputError(f"{where}{unknown[0]}: {_unknown(fields)}", path)
     hints = typing.get_type_hints(cls)
-    current = None if isinstance(base, type) else base
+    current = _defaults(cls) if isinstance(base, type) else base
     changes = {
         name: _check_value(
             hints.get(name),
