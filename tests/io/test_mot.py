@@ -161,6 +161,21 @@ def test_atomic_write_keeps_old_file_when_body_raises(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res.txt"]  # no temp file left
 
 
+def test_atomic_write_gives_the_mode_of_a_plain_open(tmp_path):
+    import os
+    import stat
+
+    old = os.umask(0o022)
+    try:
+        with atomic_write(tmp_path / "out.txt") as fh:
+            fh.write("x")
+        (tmp_path / "plain.txt").write_text("x")
+    finally:
+        os.umask(old)
+    mode = stat.S_IMODE((tmp_path / "out.txt").stat().st_mode)
+    assert mode == stat.S_IMODE((tmp_path / "plain.txt").stat().st_mode) == 0o644
+
+
 def test_atomic_write_replaces_on_success(tmp_path):
     path = tmp_path / "res.bin"
     path.write_bytes(b"old")

@@ -65,6 +65,7 @@ def run_av(args: argparse.Namespace) -> int:
     from avtrack.simulate.scene import simulate_scene, write_scene
     from avtrack.tracking.vavit import load_scene, track_scene
     from avtrack.viz import report
+    from avtrack.viz.video import render_scene_video
 
     if args.duration <= 0 or args.duration > 600:
         raise InputError(f"--duration must be in (0, 600] seconds, got {args.duration}")
@@ -130,8 +131,13 @@ def run_av(args: argparse.Namespace) -> int:
         "files: scene/ (the simulated scene directory), tracks.txt (MOTChallenge), "
         "speech.rttm (diarization), scores.json",
     ]
+    with progress.activity("rendering the video overlay", args.quiet):
+        videos = [render_scene_video(inputs, res, out / f"tracks.{ext}", title="avtrack demo")
+                  for ext in ("webm", "mp4")]  # fmt: skip
+    notes.append("tracks.webm / tracks.mp4: the tracks, identities and speaking status over "
+                 "the rendered camera frames (thin grey: ground truth)")  # fmt: skip
     report.write_report(out / "index.html", "avtrack demo: a simulated meeting", scores,
-                        figures, notes)  # fmt: skip
+                        figures, notes, video=videos[0], video_links=videos)  # fmt: skip
     with atomic_write(out / "scores.json") as fh:
         json.dump({k: (None if isinstance(v, float) and np.isnan(v) else v)
                    for k, v in scores.items()}, fh, indent=2)  # fmt: skip

@@ -6,13 +6,13 @@ import argparse
 import contextlib
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from avtrack.cli.base import HelpFormatter, add_common, build_config, read_config_mapping
 from avtrack.errors import InputError
+from avtrack.io.base import temp_output
 from avtrack.io.doa import DOA_HEADER, format_doa_row
 
 EXAMPLES = """\
@@ -122,7 +122,7 @@ def _row_sink(output: Path | None):
         yield sys.stdout
         return
     output.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{output.name}.", suffix=".tmp", dir=output.parent)
+    fd, tmp = temp_output(output)
     try:
         with os.fdopen(fd, "w") as fh:
             try:

@@ -10,6 +10,21 @@ from pathlib import Path
 from typing import IO
 
 
+def temp_output(path: Path, suffix: str = ".tmp") -> tuple[int, str]:
+    """``(fd, name)`` of a new temporary file next to ``path``, for writing then renaming
+    onto it (:func:`os.replace` is atomic within a directory).
+
+    :func:`tempfile.mkstemp` creates the file private (mode 0600); it is given the mode a
+    plain ``open()`` would (0666 less the umask), so outputs are readable as usual.
+    """
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix, dir=path.parent)
+    umask = os.umask(0)
+    os.umask(umask)
+    with contextlib.suppress(OSError):
+        os.fchmod(fd, 0o666 & ~umask)
+    return fd, tmp
+
+
 @contextlib.contextmanager
 def atomic_write(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
     """Open a temporary file next to ``path`` and rename it onto ``path`` on success.
@@ -28,7 +43,7 @@ def atomic_write(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
         raise ValueError(f"atomic_write: mode must be 'w' or 'wb', got {mode!r}")
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = temp_output(path)
     try:
         with os.fdopen(fd, mode, **kwargs) as fh:
             yield fh

@@ -452,6 +452,9 @@ def write_scene(scene: Scene, out_dir: str | Path) -> Path:
             )
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
+    umask = os.umask(0)
+    os.umask(umask)
+    tmp.chmod(0o777 & ~umask)  # mkdtemp makes it private; the scene is a normal folder
     try:
         _write_contents(scene, tmp)
         if out_dir.exists():

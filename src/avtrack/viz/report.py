@@ -1,7 +1,8 @@
 """A self-contained HTML report of an audio-visual scene and what the trackers made of it.
 
 Figures are drawn with matplotlib (Agg) and embedded in ``index.html`` as base64 PNGs, so the
-report is one file that opens without network access or other files.
+report is one file that opens without network access or other files; the video overlay
+(:mod:`avtrack.viz.video`) is embedded too when it is small, else linked next to the page.
 """
 
 from __future__ import annotations
@@ -9,7 +10,9 @@ from __future__ import annotations
 import base64
 import html
 import io
+import os
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -88,11 +91,59 @@ def timeline_figure(reference: Sequence[RTTMSegment], hypothesis: Sequence[RTTMS
     return _png(fig)
 
 
+#: Videos up to this size are embedded in the page (data URI); larger ones are linked.
+EMBED_VIDEO_MAX_BYTES = 16 * 2**20
+
+_VIDEO_TYPES = {".webm": "video/webm", ".mp4": "video/mp4"}
+
+
+def _video_block(path: Path, page_dir: Path, links: Sequence[Path]) -> str:
+    """A ``<video>`` element playing ``path`` (embedded when small enough) and links to the
+    video files ``links`` (relative to the page)."""
+    mime = _VIDEO_TYPES.get(path.suffix.lower())
+    if mime is None:
+        raise ValueError(f"write_report: video must be .webm or .mp4, got {path.name!r}")
+    if path.stat().st_size <= EMBED_VIDEO_MAX_BYTES:
+        src = f"data:{mime};base64," + base64.b64encode(path.read_bytes()).decode("ascii")
+    else:
+        src = html.escape(os.path.relpath(path, page_dir))
+    anchors = " ".join(
+        f"<a href='{html.escape(os.path.relpath(p, page_dir))}'>{html.escape(p.name)}</a>"
+        for p in links
+    )
+    return (
+        "<h2>video overlay</h2><video id='overlay' controls muted loop playsinline "
+        f"preload='auto' src='{src}'></video>"
+        + (f"<p>download: {anchors}</p>" if anchors else "")
+    )
+
+
 def write_report(path, title: str, scores: dict[str, float], figures: dict[str, str],
-                 notes: Sequence[str] = ()) -> None:  # fmt: skip
-    """``index.html``: a title, a scores table, notes and the embedded figures (atomic)."""
+                 notes: Sequence[str] = (), video: str | Path | None = None,
+                 video_links: Sequence[str | Path] = ()) -> None:  # fmt: skip
+    """``index.html``: a title, a scores table, notes, the embedded figures and optionally a
+    video overlay, written atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The page.
+    title : str
+    scores : dict
+        Name -> value (floats shown with 2 decimals).
+    figures : dict
+        Name -> base64 PNG (as the ``*_figure`` functions return).
+    notes : sequence of str
+    video : str or Path, optional
+        A ``.webm`` (plays in every browser) or ``.mp4`` file shown in a ``<video>`` element:
+        embedded as a data URI up to :data:`EMBED_VIDEO_MAX_BYTES`, linked (relative path)
+        beyond, so the page never needs the network.
+    video_links : sequence of str or Path
+        Files linked under the video (e.g. the MP4), relative to the page.
+    """
     from avtrack.io.base import atomic_write
 
+    path = Path(path)
     rows = "".join(
         f"<tr><th>{html.escape(k)}</th><td>{v:.2f}</td></tr>"
         if isinstance(v, float) else f"<tr><th>{html.escape(k)}</th><td>{v}</td></tr>"
@@ -103,12 +154,14 @@ def write_report(path, title: str, scores: dict[str, float], figures: dict[str, 
         f"src='data:image/png;base64,{data}'>"
         for name, data in figures.items()
     )
+    if video is not None:
+        figs += _video_block(Path(video), path.parent, [Path(p) for p in video_links])
     items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
     text = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>body{{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}}
 table{{border-collapse:collapse}}th,td{{border:1px solid #ccc;padding:4px 10px;text-align:left}}
-img{{max-width:100%}}</style></head>
+img,video{{max-width:100%}}</style></head>
 <body><h1>{html.escape(title)}</h1>
 <table id="scores">{rows}</table><ul>{items}</ul>{figs}</body></html>
 """

@@ -32,13 +32,14 @@ from __future__ import annotations
 import contextlib
 import math
 import os
-import tempfile
+import sys
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from avtrack.io.base import temp_output
 from avtrack.io.mot import MOTData
 from avtrack.simulate.camera import PinholeCamera
 
@@ -113,6 +114,30 @@ def _check_camera(camera: PinholeCamera | None, size: tuple[int, int]) -> None:
             f"camera image size {camera.width}x{camera.height} does not match image_size "
             f"{size[0]}x{size[1]}"
         )
+
+
+@contextlib.contextmanager
+def _native_stderr_silenced():
+    """Silence file descriptor 2 (native code's stderr) for the block.
+
+    OpenCV's FFmpeg back-end prints "tag 'VP80' is not supported with codec id 139" to the
+    process's stderr each time a WebM writer opens -- the file is fine (FFmpeg picks the
+    right tag) and OpenCV's log level does not reach that message -- so it would only
+    confuse the people reading ``avtrack demo``'s output.
+    """
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):  # no real fd 2 (embedded interpreters)
+        yield
+        return
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
 
 
 def video_codec(path: str | Path, codec: str | None = None) -> str:
@@ -710,12 +735,15 @@ def render_overlay_video(
         title,
     )
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+    fd, tmp_name = temp_output(path, path.suffix)
     os.close(fd)
     tmp = Path(tmp_name)
     writer = None
     try:
-        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*fourcc), r.fps, r.out_size)
+        with _native_stderr_silenced():  # FFmpeg's harmless 'tag ... not supported' notice
+            writer = cv2.VideoWriter(
+                str(tmp), cv2.VideoWriter_fourcc(*fourcc), r.fps, r.out_size
+            )
         if not writer.isOpened():
             raise RuntimeError(
                 f"OpenCV {cv2.__version__} cannot open a {fourcc!r} video writer for {path} "

@@ -1,0 +1,108 @@
+"""The demo's HTML report renders in headless Chromium with the network cut off.
+
+Playwright drives the system's Chromium (``/usr/bin/chromium`` from Debian's ``chromium``
+package, or ``AVTRACK_CHROMIUM``); every request other than ``file:`` and ``data:`` is aborted
+and recorded. The page must load its figures and the video overlay, show the scores, and give
+a non-blank screenshot. ``.ci/run`` installs Chromium and sets ``AVTRACK_REQUIRE_BROWSER=1``,
+so in CI a missing browser is a failure, not a skip.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from avtrack.cli.main import main
+
+REQUIRED = os.environ.get("AVTRACK_REQUIRE_BROWSER") == "1"
+FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+         "--disable-background-networking", "--disable-component-update", "--disable-sync",
+         "--autoplay-policy=no-user-gesture-required"]  # fmt: skip
+
+
+def _browser() -> str | None:
+    env = os.environ.get("AVTRACK_CHROMIUM")
+    if env:
+        return env
+    for name in ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable"):
+        found = shutil.which(name)
+        if found:
+            return found
+    return None
+
+
+def _unavailable(reason: str):
+    if REQUIRED:
+        pytest.fail(f"AVTRACK_REQUIRE_BROWSER=1 but {reason}")
+    pytest.skip(reason)
+
+
+@pytest.fixture(scope="module")
+def chromium_page():
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        _unavailable("playwright is not installed (pip install '.[test]')")
+    exe = _browser()
+    if exe is None:
+        _unavailable("no Chromium found (apt-get install chromium, or set AVTRACK_CHROMIUM)")
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=exe, args=FLAGS)
+        try:
+            yield browser.new_page(viewport={"width": 1100, "height": 900})
+        finally:
+            browser.close()
+
+
+@pytest.fixture(scope="module")
+def demo_report(tmp_path_factory):
+    out = tmp_path_factory.mktemp("browser") / "demo"
+    assert main(["demo", "-o", str(out), "--duration", "4", "--seed", "1", "-q"]) == 0
+    return out
+
+
+def test_demo_report_renders_offline_in_chromium(chromium_page, demo_report, tmp_path):
+    page = chromium_page
+    blocked: list[str] = []
+
+    def offline(route):
+        url = route.request.url
+        if url.startswith(("file:", "data:")):
+            route.continue_()
+        else:
+            blocked.append(url)
+            route.abort()
+
+    page.route("**/*", offline)
+    page.goto((demo_report / "index.html").as_uri(), wait_until="load")
+    assert blocked == [], f"the report asked the network for {blocked}"
+    images = page.evaluate(
+        "Array.from(document.images).map(i => [i.alt, i.complete, i.naturalWidth])"
+    )
+    assert len(images) >= 3
+    for alt, complete, width in images:
+        assert complete and width > 100, (alt, complete, width)
+    rows = page.evaluate("document.querySelectorAll('#scores tr').length")
+    assert rows >= 4
+    assert "MOTA" in page.inner_text("#scores")
+    # the video overlay decodes: frames of the rendered size, a duration of the scene's
+    page.wait_for_function(
+        "() => { const v = document.getElementById('overlay'); "
+        "return v && v.readyState >= 2 && v.videoWidth > 0; }",
+        timeout=20000,
+    )
+    video = page.evaluate(
+        "(() => { const v = document.getElementById('overlay'); "
+        "return [v.videoWidth, v.videoHeight, v.duration, v.error]; })()"
+    )
+    assert video[0] >= 320 and video[1] >= 240 and 3.0 < video[2] < 5.0 and video[3] is None
+    shot = tmp_path / "report.png"
+    page.screenshot(path=str(shot), full_page=True)
+    import matplotlib.image as mpimg
+
+    pixels = mpimg.imread(shot)
+    assert pixels.shape[0] > 1500 and pixels.shape[1] >= 1000  # the whole page
+    assert float(np.std(pixels[..., :3])) > 0.05  # figures drawn, not a blank page
