@@ -49,7 +49,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
-import io  # noqa: E402
 import platform  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
@@ -70,7 +69,7 @@ from avtrack.io.base import atomic_write  # noqa: E402
 from avtrack.io.mot import MOTData, read_mot  # noqa: E402
 from avtrack.io.rttm import read_rttm  # noqa: E402
 from avtrack.metrics.der import DERComponents, diarization_error_rate  # noqa: E402
-from avtrack.metrics.mot import box_iou  # noqa: E402
+from avtrack.metrics.mot import box_iou, evaluate_mot  # noqa: E402
 from avtrack.simulate.scenario import validate_scenario  # noqa: E402
 from avtrack.simulate.scene import simulate_scene, write_scene  # noqa: E402
 from avtrack.tracking.vavit import (  # noqa: E402
@@ -241,57 +240,25 @@ def clear_counts(
     threshold: float = 0.1,
     relax: float = 2.0,
 ) -> Counts:
-    """CLEAR-MOT (TrackEval) with overlap threshold ``threshold`` (thesis §4.7.5: 0.1).
+    """CLEAR-MOT (TrackEval, via :func:`avtrack.metrics.mot.evaluate_mot`) with overlap
+    threshold ``threshold`` (thesis §4.7.5: 0.1).
 
     Ground-truth boxes whose centre lies outside the visible columns ``blind = (lo, hi)`` are
     matched with both boxes scaled by ``relax`` about their centres (the thesis relaxes the
     localisation accuracy of audio-only tracking by a factor of two).
     """
-    from trackeval.metrics import CLEAR
 
-    gt_ids, res_ids, sims = [], [], []
-    for gs, rs in zip(gt.frame_slices(n_frames), res.frame_slices(n_frames), strict=True):
-        gb, rb = gt.boxes[gs], res.boxes[rs]
+    def similarity(gb: np.ndarray, rb: np.ndarray) -> np.ndarray:
         sim = box_iou(gb, rb)
         if blind is not None and len(gb) and len(rb):
             cx = gb[:, 0] + 0.5 * gb[:, 2]
             out = (cx < blind[0]) | (cx > blind[1])
             if np.any(out):
                 sim[out] = box_iou(_scaled(gb[out], relax), _scaled(rb, relax))
-        gt_ids.append(gt.ids[gs])
-        res_ids.append(res.ids[rs])
-        sims.append(sim)
+        return sim
 
-    def relabel(ids_t):
-        u, inv = np.unique(np.concatenate(ids_t) if ids_t else np.zeros(0), return_inverse=True)
-        splits = np.cumsum([len(x) for x in ids_t])[:-1]
-        return [x.astype(int) for x in np.split(inv, splits)], int(u.size)
-
-    g_ids, n_g = relabel(gt_ids)
-    r_ids, n_r = relabel(res_ids)
-    data = {
-        "gt_ids": g_ids,
-        "tracker_ids": r_ids,
-        "similarity_scores": sims,
-        "num_gt_dets": int(sum(len(x) for x in g_ids)),
-        "num_tracker_dets": int(sum(len(x) for x in r_ids)),
-        "num_gt_ids": n_g,
-        "num_tracker_ids": n_r,
-        "num_timesteps": n_frames,
-        "seq": "s",
-    }
-    with contextlib.redirect_stdout(io.StringIO()):
-        c = CLEAR({"THRESHOLD": threshold, "PRINT_CONFIG": False}).eval_sequence(data)
-    return Counts(
-        int(c["CLR_TP"] + c["CLR_FN"]),
-        int(c["CLR_FP"]),
-        int(c["CLR_FN"]),
-        int(c["IDSW"]),
-        int(c["Frag"]),
-        int(c["MT"]),
-        int(c["ML"]),
-        n_g,
-    )
+    s = evaluate_mot(gt, res, n_frames=n_frames, threshold=threshold, similarity=similarity)
+    return Counts(s.n_gt_dets, s.FP, s.FN, s.IDSW, s.Frag, s.MT, s.ML, s.n_gt_ids)
 
 
 # --------------------------------------------------------------------------- running

@@ -112,6 +112,7 @@ def trackeval_reference(
         "AssA": 100 * np.mean(h["AssA"]),
         "n_gt_ids": r["Count"]["GT_IDs"],
         "n_frames": n_frames,
+        "n_gt_dets": c["CLR_TP"] + c["CLR_FN"],
     }
 
 
@@ -333,6 +334,36 @@ def test_iou_below_half_is_not_a_match():
     s = evaluate_mot(gt, res)
     assert (s.FP, s.FN) == (1, 1)
     assert s.MOTA == pytest.approx(-100.0)  # (TP - FP - IDSW) / n_gt = (0 - 1 - 0) / 1
+
+
+def test_lower_threshold_accepts_a_smaller_overlap():
+    # IoU 0.4: no match at MOTChallenge's 0.5, a match at the thesis's 0.1 (§4.7.5)
+    gt = mot([(1, 1, 0, 0, 100, 100), (2, 1, 0, 0, 100, 100)])
+    res = mot([(1, 1, 0, 0, 100, 40), (2, 1, 0, 0, 100, 40)])
+    assert (evaluate_mot(gt, res).FP, evaluate_mot(gt, res).FN) == (2, 2)
+    s = evaluate_mot(gt, res, threshold=0.1)
+    assert (s.FP, s.FN, s.IDSW, s.n_gt_dets) == (0, 0, 0, 2)
+    assert s.MOTA == pytest.approx(100.0) and s.IDF1 == pytest.approx(100.0)
+    assert s.MOTP == pytest.approx(40.0)
+
+
+def test_custom_similarity_replaces_iou():
+    gt = mot([(1, 1, 0, 0, 10, 10), (1, 2, 500, 0, 10, 10)])
+    res = mot([(1, 7, 300, 300, 10, 10), (1, 8, 500, 0, 10, 10)])
+
+    def first_gt_matches_anything(gb, rb):
+        sim = box_iou(gb, rb)
+        sim[gb[:, 0] < 100] = 0.9
+        return sim
+
+    s = evaluate_mot(gt, res, similarity=first_gt_matches_anything)
+    assert (s.FP, s.FN, s.n_gt_dets) == (0, 0, 2)
+    with pytest.raises(ValueError, match=r"similarity must return shape \(2, 2\)"):
+        evaluate_mot(gt, res, similarity=lambda g, r: np.zeros((1, 1)))
+    with pytest.raises(ValueError, match=r"in \[0, 1\]"):
+        evaluate_mot(gt, res, similarity=lambda g, r: np.full((2, 2), 2.0))
+    with pytest.raises(ValueError, match="threshold must be in"):
+        evaluate_mot(gt, res, threshold=0.0)
 
 
 def test_empty_result_and_empty_gt():

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import contextlib
 import io
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -79,6 +79,8 @@ class MOTScores:
         Ground-truth identities evaluated (after preprocessing).
     n_frames : int
         Frames in the sequence.
+    n_gt_dets : int
+        Ground-truth boxes evaluated (after preprocessing): MOTA's denominator.
     """
 
     MOTA: float
@@ -98,6 +100,7 @@ class MOTScores:
     AssA: float
     n_gt_ids: int
     n_frames: int
+    n_gt_dets: int = 0
 
     def as_dict(self) -> dict[str, float | int]:
         """The scores as a plain ``{name: value}`` dict (JSON-serialisable)."""
@@ -195,6 +198,8 @@ def evaluate_mot(
     *,
     benchmark: str = "MOT15",
     n_frames: int | None = None,
+    threshold: float = _MATCH_IOU,
+    similarity: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
 ) -> MOTScores:
     """Score a tracker result against ground truth on one sequence, as MOTChallenge does.
 
@@ -211,6 +216,13 @@ def evaluate_mot(
     n_frames : int, optional
         Sequence length; defaults to the last frame in ``gt`` or ``res``. Only affects
         :attr:`MOTScores.n_frames`; frames beyond it must not occur.
+    threshold : float
+        Least similarity of a CLEAR-MOT / identity match (MOTChallenge: IoU 0.5; the thesis's
+        audio-visual evaluation, §4.7.5, uses 0.1). HOTA always averages over 0.05..0.95.
+    similarity : callable, optional
+        ``similarity(gt_boxes (G, 4), res_boxes (R, 4)) -> (G, R)`` in [0, 1] for the boxes of
+        one frame (ltwh); default IoU. E.g. a relaxed overlap for people outside the camera's
+        view. The MOT16/17/20 distractor preprocessing always uses IoU.
 
     Returns
     -------
@@ -241,6 +253,10 @@ def evaluate_mot(
             f"got {n_frames}"
         )
     n_frames = int(n_frames)
+    if isinstance(threshold, bool) or not (
+        isinstance(threshold, int | float) and 0 < threshold <= 1
+    ):
+        raise ValueError(f"evaluate_mot: threshold must be in (0, 1], got {threshold!r}")
     _check_ids(gt, "gt")
     _check_ids(res, "res")
     if len(gt) and not np.all(np.isfinite(gt.scores)):
@@ -261,6 +277,8 @@ def evaluate_mot(
         res_keep = np.ones(rs.stop - rs.start, dtype=bool)
         if preproc and sim.size:
             res_keep[_distractor_matches(sim, gt_classes[gs], distractors)] = False
+        if similarity is not None:
+            sim = _custom_similarity(similarity, gt.boxes[gs], res.boxes[rs])
         g = gt_keep[gs]
         gt_ids_t.append(gt.ids[gs][g])
         res_ids_t.append(res.ids[rs][res_keep])
@@ -279,7 +297,7 @@ def evaluate_mot(
         "num_timesteps": n_frames,
         "seq": "sequence",
     }
-    clear, ident, hota = _run_trackeval(data)
+    clear, ident, hota = _run_trackeval(data, float(threshold))
     return MOTScores(
         MOTA=100 * float(clear["MOTA"]),
         MOTP=100 * float(clear["MOTP"]),
@@ -298,7 +316,19 @@ def evaluate_mot(
         AssA=100 * float(np.mean(hota["AssA"])),
         n_gt_ids=n_gt_ids,
         n_frames=n_frames,
+        n_gt_dets=data["num_gt_dets"],
     )
+
+
+def _custom_similarity(fn, gb: np.ndarray, rb: np.ndarray) -> np.ndarray:
+    sim = np.asarray(fn(gb, rb), dtype=float)
+    if sim.shape != (len(gb), len(rb)):
+        raise ValueError(
+            f"evaluate_mot: similarity must return shape ({len(gb)}, {len(rb)}), got {sim.shape}"
+        )
+    if sim.size and not (np.all(np.isfinite(sim)) and sim.min() >= 0 and sim.max() <= 1):
+        raise ValueError("evaluate_mot: similarity values must be finite and in [0, 1]")
+    return sim
 
 
 def _check_ids(d: MOTData, name: str) -> None:
@@ -376,7 +406,7 @@ def _relabel(ids_t: list[np.ndarray]) -> tuple[list[np.ndarray], int]:
     return [x.astype(int) for x in np.split(inverse, splits)], int(unique.size)
 
 
-def _run_trackeval(data: dict[str, Any]) -> tuple[dict, dict, dict]:
+def _run_trackeval(data: dict[str, Any], threshold: float = _MATCH_IOU) -> tuple[dict, dict, dict]:
     try:
         from trackeval.metrics import CLEAR, HOTA, Identity
     except AttributeError as exc:  # a TrackEval built for NumPy < 1.24
@@ -384,7 +414,7 @@ def _run_trackeval(data: dict[str, Any]) -> tuple[dict, dict, dict]:
             f"trackeval failed to import with NumPy {np.__version__} ({exc}); "
             "install trackeval>=1.3.0"
         ) from exc
-    config = {"THRESHOLD": _MATCH_IOU, "PRINT_CONFIG": False}
+    config = {"THRESHOLD": threshold, "PRINT_CONFIG": False}
     with contextlib.redirect_stdout(io.StringIO()):  # TrackEval reports progress on stdout
         return (
             CLEAR(dict(config)).eval_sequence(data),
