@@ -70,6 +70,21 @@ def test_box_observations_validation():
     np.testing.assert_array_equal(sub.appearance, np.eye(3)[[2, 0]])
 
 
+def test_split_frames_carry_the_constants_they_would_compute():
+    rng = np.random.default_rng(3)
+    z = np.column_stack([rng.uniform(50, 150, (7, 2)), rng.uniform(20, 60, (7, 2))])
+    batch = BoxObservations(z, box_observation_variance(z), rng.uniform(size=(7, 5)))
+    frames = batch.split([0, 3, 3, 7])
+    assert [len(f) for f in frames] == [3, 0, 4]
+    for f, rows in zip(frames, (slice(0, 3), slice(3, 3), slice(3, 7)), strict=True):
+        np.testing.assert_array_equal(f.z, z[rows])
+        np.testing.assert_array_equal(f.appearance, batch.appearance[rows])
+        fresh = BoxObservations(f.z.copy(), f.var.copy(), f.appearance)
+        for name in ("inv_var", "information_terms", "log_normaliser"):
+            assert name in vars(f)  # set by split, not recomputed
+            np.testing.assert_array_equal(getattr(f, name), getattr(fresh, name))
+
+
 # --------------------------------------------------------------------------- likelihoods
 
 

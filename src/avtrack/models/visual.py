@@ -12,8 +12,10 @@ projection ``P = [I_4 0]``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from itertools import pairwise
 
 import numpy as np
 
@@ -114,6 +116,26 @@ class BoxObservations:
     def subset(self, idx: np.ndarray) -> BoxObservations:
         app = None if self.appearance is None else self.appearance[idx]
         return BoxObservations(self.z[idx], self.var[idx], app)
+
+    def split(self, bounds: Sequence[int]) -> list[BoxObservations]:
+        """The frames ``rows bounds[i]:bounds[i + 1]`` of a batch of consecutive frames, with
+        their per-frame constants (:attr:`inv_var`, :attr:`information_terms`,
+        :attr:`log_normaliser`) already set: rows of the batch's, computed once for all rows
+        (they are row-wise, so each frame gets the very numbers it would compute)."""
+        consts = {name: getattr(self, name) for name in _ROW_CONSTANTS}
+        app = self.appearance
+        frames = []
+        for a, b in pairwise(bounds):
+            obs = BoxObservations(self.z[a:b], self.var[a:b], None if app is None else app[a:b])
+            # where cached_property would store them (it writes the instance dict directly)
+            obs.__dict__.update({name: value[a:b] for name, value in consts.items()})
+            frames.append(obs)
+        return frames
+
+
+#: The row-wise cached constants of :class:`BoxObservations` that :meth:`~BoxObservations.split`
+#: hands down to each frame.
+_ROW_CONSTANTS = ("inv_var", "information_terms", "log_normaliser")
 
 
 class BoxObservationModel(DiagonalObservationModel):

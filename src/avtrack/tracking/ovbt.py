@@ -221,9 +221,7 @@ class OVBTracker:
         kept = np.zeros(rows.stop - rows.start + 1, dtype=np.int64)
         np.cumsum(dets.scores[rows] >= self.config.min_score, out=kept[1:])
         starts = kept[[sl.start - rows.start for sl in slices] + [rows.stop - rows.start]]
-        app = first.appearance
-        return [BoxObservations(first.z[a:b], first.var[a:b], None if app is None else app[a:b])
-                for a, b in zip(starts[:-1].tolist(), starts[1:].tolist(), strict=True)]
+        return first.split(starts.tolist())
 
     def step(self, boxes: np.ndarray, scores: np.ndarray | None = None,
              appearance: np.ndarray | None = None) -> FrameTracks:
