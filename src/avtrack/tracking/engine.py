@@ -149,7 +149,7 @@ class VEMEngine:
         k, d = ids.shape[0], self.dim
         mu = np.asarray(mu, dtype=float).reshape(k, d)
         gamma = np.asarray(gamma, dtype=float).reshape(k, d, d)
-        if np.isin(ids, self.ids).any():
+        if not set(ids.tolist()).isdisjoint(self.ids.tolist()):  # (np.isin: 10x slower here)
             raise ValueError(f"target ids already in use: {ids[np.isin(ids, self.ids)]}")
         self.ids = np.concatenate([self.ids, ids])
         self.mu = np.vstack([self.mu, mu])
