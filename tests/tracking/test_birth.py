@@ -159,6 +159,48 @@ def test_empty_pool_yields_no_candidate():
     assert birth_candidates(pools_from(frames), D, dyn_cov, velocity_var, LOG_U) == []
 
 
+def dyn_var(mu: np.ndarray) -> np.ndarray:
+    return np.diagonal(dyn_cov(mu), axis1=1, axis2=2)
+
+
+@pytest.mark.parametrize("dt", [1.0, 0.5])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_constant_velocity_path_equals_the_matrix_filter(seed, dt):
+    """``dynamics_var`` with a constant-velocity D: the elementwise filter gives the
+    candidates of the matrix one (several people, clutter and a missing detection)."""
+    rng = np.random.default_rng(seed)
+    tracks = [smooth_track(x0=x0, vx=vx, w=w, h=2.2 * w, n=4)
+              for x0, vx, w in ((100.0, 2.0, 40.0), (180.0, -3.0, 55.0), (260.0, 0.5, 30.0))]
+    frames = []
+    for f in range(4):
+        rows = [t[f] + rng.normal(scale=2.0, size=4) for t in tracks if rng.random() > 0.2]
+        rows.append(rng.uniform([0, 0, 20, 40], [640, 480, 80, 160]))  # clutter
+        frames.append(np.vstack(rows))
+    d = constant_velocity_transition(4, 2, dt)
+    kw = dict(gate=np.inf, beam=2)  # every sequence: long chains of updates
+    ref = birth_candidates(pools_from(frames), d, dyn_cov, velocity_var, LOG_U, **kw)
+    cv = birth_candidates(pools_from(frames), d, dyn_cov, velocity_var, LOG_U,
+                          dynamics_var=dyn_var, **kw)
+    assert len(cv) == len(ref) > 3
+    for a, b in zip(cv, ref, strict=True):
+        np.testing.assert_array_equal(a.indices, b.indices)
+        np.testing.assert_allclose(a.llr, b.llr, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(a.mu, b.mu, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(a.gamma, b.gamma, rtol=1e-12, atol=1e-12)
+        assert a.gamma.shape == (6, 6)
+
+
+def test_dynamics_var_is_ignored_without_a_constant_velocity_transition():
+    """Any other D takes the matrix filter (here one that damps the velocity)."""
+    d = constant_velocity_transition(4, 2)
+    d[4, 4] = d[5, 5] = 0.9
+    pools = pools_from(list(smooth_track()))
+    ref = birth_candidates(pools, d, dyn_cov, velocity_var, LOG_U)
+    out = birth_candidates(pools, d, dyn_cov, velocity_var, LOG_U,
+                           dynamics_var=lambda mu: pytest.fail("not a CV transition"))
+    assert [c.llr for c in out] == [c.llr for c in ref]
+
+
 def test_bad_arguments_raise():
     pools = pools_from(list(smooth_track()))
     with pytest.raises(ValueError, match="at least 2 frames"):

@@ -12,10 +12,12 @@ from hypothesis.extra import numpy as hnp
 from scipy.optimize import minimize
 from scipy.stats import multivariate_normal
 
+from avtrack.models.dynamics import constant_velocity_transition
 from avtrack.tracking.vem import (
     CLUTTER_FLOOR,
     FEASIBILITY_TOL,
     PRIOR_FLOOR,
+    cv_transition,
     e_s_step,
     e_z_step,
     exclusive_projection,
@@ -60,6 +62,17 @@ matrices = hnp.arrays(np.float64, (2, 3, 3), elements=st.floats(-3, 3))
 
 
 # --------------------------------------------------------------------------- predict
+
+
+def test_cv_transition_recognises_constant_velocity_matrices():
+    assert cv_transition(constant_velocity_transition(4, 2), 4) == (2, 1.0)
+    assert cv_transition(constant_velocity_transition(2, 2, 0.5), 2) == (2, 0.5)
+    assert cv_transition(np.eye(3), 3) == (0, 1.0)
+    assert cv_transition(constant_velocity_transition(4, 2), 3) is None  # k wrong
+    damped = constant_velocity_transition(4, 2)
+    damped[4, 4] = 0.9
+    assert cv_transition(damped, 4) is None
+    assert cv_transition(np.ones((6, 4)), 4) is None
 
 
 def test_predict_constant_velocity_by_hand():

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avtrack.tracking.vem import symmetrize
+from avtrack.tracking.vem import CVStates, cv_join, cv_transition, symmetrize
 
 _LOG_2PI = np.log(2 * np.pi)
 
@@ -61,6 +61,7 @@ def birth_candidates(
     log_clutter_density: float,
     gate: float = 18.47,
     beam: int = 3,
+    dynamics_var: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> list[BirthCandidate]:
     """Score every gated observation sequence through ``pools`` (thesis eq. 3.30).
 
@@ -81,6 +82,12 @@ def birth_candidates(
         Squared Mahalanobis gate on each innovation (default: χ²₄ at 0.999).
     beam : int
         Chains kept per observation and frame.
+    dynamics_var : callable ``(C, d) -> (C, d)``, optional
+        The diagonal of ``dynamics_cov``, for a diagonal one. Given, with a constant-velocity
+        ``D`` (:func:`~avtrack.models.dynamics.constant_velocity_transition` of the ``k_obs``
+        observed components), the Kalman filter runs on each component's (position, velocity)
+        pair, the covariances staying in the pattern of :func:`~avtrack.tracking.vem.cv_pattern`
+        (:func:`_filter_cv`): the same updates with no ``d × d`` product.
 
     Returns
     -------
@@ -92,9 +99,12 @@ def birth_candidates(
         raise ValueError(f"beam must be >= 1, got {beam}")
     z0, var0 = pools[0]
     c, k = z0.shape
-    d = transition.shape[0]
     if c == 0:
         return []
+    cv = None if dynamics_var is None else cv_transition(transition, k)
+    if cv is not None:
+        return _filter_cv(pools, cv, dynamics_var, velocity_var, log_clutter_density, gate, beam)
+    d = transition.shape[0]
     # p(s_{t-B}): centred at the first observation (eq. 3.30 and the text below it).
     mu = np.zeros((c, d))
     mu[:, :k] = z0
@@ -123,15 +133,7 @@ def birth_candidates(
             s_inv = np.linalg.inv(s)
             maha = np.einsum("cmi,cmij,cmj->cm", r, s_inv, r)  # rᵀ S⁻¹ r
             _, logdet = np.linalg.slogdet(s)
-        loglik = -0.5 * (maha + logdet + k * _LOG_2PI)  # log N(o_m; P μ, S)
-        total = np.where(maha < gate, score[:, None] + loglik, -np.inf)
-        # beam: best chains for each observation
-        order = np.argsort(-total, axis=0)[:beam]  # (beam, M)
-        ci = order.ravel()
-        mi = np.arange(ci.shape[0]) % m  # the observation (column) of each entry of ``order``
-        score = total[ci, mi]
-        ok = score > -np.inf  # passed every gate
-        ci, mi, score = ci[ok], mi[ok], score[ok]
+        ci, mi, score = _beam(score, maha, logdet, k, gate, beam)
         # Kalman update of the kept pairs
         r = r[ci, mi]
         if diagonal:  # K = Γ Pᵀ S⁻¹, (K, d, k)
@@ -142,10 +144,105 @@ def birth_candidates(
         gamma = gamma[ci]
         gamma = symmetrize(gamma - kgain @ gamma[:, :k, :])  # (I - K P) Γ
         chains = np.concatenate([chains[ci], mi[:, None]], axis=1)
-    n_later = len(pools) - 1
+    return _candidates(chains, score, len(pools) - 1, log_clutter_density, mu, gamma)
+
+
+def _beam(
+    score: np.ndarray, maha: np.ndarray, logdet: np.ndarray, k: int, gate: float, beam: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One frame of the beam search: from the scores ``(C,)`` of the chains so far and the
+    Mahalanobis distances and log-determinants ``(C, M)`` of their innovations, the chains
+    ``ci`` and observations ``mi`` of the (at most ``beam`` per observation) extended chains
+    that pass the gate, and their scores."""
+    m = maha.shape[1]
+    loglik = -0.5 * (maha + logdet + k * _LOG_2PI)  # log N(o_m; P μ, S)
+    total = np.where(maha < gate, score[:, None] + loglik, -np.inf)
+    # beam: best chains for each observation
+    order = np.argsort(-total, axis=0)[:beam]  # (beam, M)
+    ci = order.ravel()
+    mi = np.arange(ci.shape[0]) % m  # the observation (column) of each entry of ``order``
+    score = total[ci, mi]
+    ok = score > -np.inf  # passed every gate
+    return ci[ok], mi[ok], score[ok]
+
+
+def _candidates(
+    chains: np.ndarray, score: np.ndarray, n_later: int, log_clutter_density: float,
+    mu: np.ndarray, gamma: np.ndarray,
+) -> list[BirthCandidate]:
+    """The chains ``(C, B + 1)`` as candidates, by decreasing LLR."""
     llr = score - n_later * log_clutter_density
     order = np.argsort(-llr)
     return [BirthCandidate(chains[i], float(llr[i]), mu[i], gamma[i]) for i in order]
+
+
+def _filter_cv(
+    pools: Sequence[tuple[np.ndarray, np.ndarray]],
+    cv: tuple[int, float],
+    dynamics_var: Callable[[np.ndarray], np.ndarray],
+    velocity_var: Callable[[np.ndarray], np.ndarray],
+    log_clutter_density: float,
+    gate: float,
+    beam: int,
+) -> list[BirthCandidate]:
+    r""":func:`birth_candidates` for a constant-velocity ``D`` with ``cv = (n_vel, Δt)`` and a
+    diagonal Λ.
+
+    The states are :class:`~avtrack.tracking.vem.CVStates`: per observed component, the
+    position and velocity means and :math:`a = \Gamma_{pp}`, :math:`b = \Gamma_{vv}`,
+    :math:`c = \Gamma_{pv}`. Every entry of the products of the matrix filter has at most
+    two nonzero terms, which are written out below in the order the products form them:
+
+    * prediction (eq. 2.21), from :math:`D\Gamma` (rows :math:`a + \Delta t\,c` and
+      :math:`c + \Delta t\,b`) times :math:`D^\top`:
+      :math:`c' = c + \Delta t\,b`, :math:`a' = (a + \Delta t\,c) + \Delta t\,c' + \lambda_p`,
+      :math:`b' = b + \lambda_v`;
+    * update with the diagonal :math:`S = a + \phi` and the gains :math:`K_p = a / S`,
+      :math:`K_v = c / S` of :math:`K = \Gamma P^\top S^{-1}`: :math:`\mu_p + K_p r`,
+      :math:`\mu_v + K_v r`, and :math:`(I - KP)\Gamma` symmetrised:
+      :math:`a - K_p a`, :math:`b - K_v c`, :math:`\frac12((c - K_p c) + (c - K_v a))`.
+    """
+    n_vel, dt = cv
+    z0, var0 = pools[0]
+    c, k = z0.shape
+    # p(s_{t-B}): centred at the first observation (eq. 3.30 and the text below it)
+    zero = np.zeros((c, k))
+    var_v = np.zeros((c, k))
+    var_v[:, :n_vel] = velocity_var(z0)
+    st = CVStates(z0, zero, var0, var_v, zero)
+    score = np.zeros(c)
+    chains = np.arange(c)[:, None]
+    for z, var in pools[1:]:
+        if z.shape[0] == 0 or st.mu_p.shape[0] == 0:
+            return []
+        mu_p, mu_v, a, b, c = st
+        lam = dynamics_var(np.concatenate([mu_p, mu_v[:, :n_vel]], axis=1))  # Λ diagonal
+        lam_v = np.zeros_like(b)
+        lam_v[:, :n_vel] = lam[:, k:]
+        # Kalman prediction, eq. 2.21: D μ and D Γ Dᵀ + Λ (Λ_pv = 0)
+        cov = c + dt * b  # c' = c + Δt b
+        a = ((a + dt * c) + dt * cov) + lam[:, :k]  # a' = (a + Δt c) + Δt c' + λ_p
+        b = b + lam_v  # b' = b + λ_v
+        mu_p = mu_p + dt * mu_v  # D μ
+        r = z[None, :, :] - mu_p[:, None, :]  # innovation o_m - P μ, (C, M, k)
+        s = a[:, None, :] + var[None]  # S = P Γ Pᵀ + Φ_m, diagonal, (C, M, k)
+        maha = (r * r / s).sum(axis=2)  # rᵀ S⁻¹ r
+        logdet = np.log(s).sum(axis=2)  # log |S|
+        ci, mi, score = _beam(score, maha, logdet, k, gate, beam)
+        # Kalman update of the kept pairs
+        r, s = r[ci, mi], s[ci, mi]
+        a, b, cov = a[ci], b[ci], cov[ci]
+        k_p, k_v = a / s, cov / s  # K = Γ Pᵀ S⁻¹
+        st = CVStates(
+            mu_p[ci] + k_p * r,  # μ + K r
+            mu_v[ci] + k_v * r,
+            a - k_p * a,  # (I - K P) Γ, symmetrised
+            b - k_v * cov,
+            0.5 * ((cov - k_p * cov) + (cov - k_v * a)),
+        )
+        chains = np.concatenate([chains[ci], mi[:, None]], axis=1)
+    mu, gamma = cv_join(st, n_vel)
+    return _candidates(chains, score, len(pools) - 1, log_clutter_density, mu, gamma)
 
 
 def select_births(candidates: Sequence[BirthCandidate], threshold: float) -> list[BirthCandidate]:

@@ -24,6 +24,7 @@ from avtrack.tracking.vem import (
     cv_join,
     cv_pattern,
     cv_split,
+    cv_transition,
     e_s_step,
     e_s_step_cv,
     m_step_dynamics,
@@ -371,11 +372,7 @@ def _constant_velocity(
     if dynamics_mstep or not all(isinstance(m, DiagonalObservationModel) for m in models):
         return None
     k = models[0].observed_dim
-    d = transition.shape[0]
-    if any(m.observed_dim != k for m in models) or not 0 < k <= d or d - k > k:
+    if any(m.observed_dim != k for m in models):
         return None
-    n_vel = d - k
-    dt = float(transition[0, k]) if n_vel else 1.0
-    expected = np.eye(d)
-    expected[np.arange(n_vel), k + np.arange(n_vel)] = dt
-    return (n_vel, k, dt) if np.array_equal(transition, expected) and dt > 0 else None
+    cv = cv_transition(transition, k)
+    return None if cv is None else (cv[0], k, cv[1])

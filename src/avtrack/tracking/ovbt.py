@@ -297,7 +297,8 @@ class OVBTracker:
             return  # every sequence needs one detection per pool frame
         pools = [(p.z, p.var) for p in self._pool]
         cands = birth_candidates(pools, self.transition, self._dyn_cov, self._velocity_var,
-                                 self.log_clutter, gate=cfg.birth_gate)
+                                 self.log_clutter, gate=cfg.birth_gate,
+                                 dynamics_var=self._dyn_var)
         if self.engine.n_targets and cands:
             # a new person cannot stand inside a tracked person's box: such sequences are
             # partial / duplicate detections of that person

@@ -446,6 +446,29 @@ def cv_pattern(dim: int, n_vel: int) -> np.ndarray:
     return mask
 
 
+def cv_transition(transition: np.ndarray, k: int) -> tuple[int, float] | None:
+    """``(n_vel, Δt)`` when ``transition`` ``(d, d)`` is
+    :func:`~avtrack.models.dynamics.constant_velocity_transition` ``(k, n_vel, Δt)`` (a velocity
+    for the first ``n_vel = d - k`` of ``k`` observed components), else None."""
+    transition = np.asarray(transition, dtype=float)
+    return _cv_transition(transition.shape, transition.tobytes(), k)
+
+
+@functools.lru_cache(maxsize=64)
+def _cv_transition(shape: tuple[int, ...], data: bytes, k: int) -> tuple[int, float] | None:
+    if len(shape) != 2 or shape[0] != shape[1]:
+        return None
+    d = shape[0]
+    n_vel = d - k
+    if not 0 < k <= d or n_vel > k:
+        return None
+    transition = np.frombuffer(data).reshape(shape)
+    dt = float(transition[0, k]) if n_vel else 1.0
+    expected = np.eye(d)
+    expected[np.arange(n_vel), k + np.arange(n_vel)] = dt
+    return (n_vel, dt) if np.array_equal(transition, expected) and dt > 0 else None
+
+
 def cv_split(mu: np.ndarray, gamma: np.ndarray, n_vel: int) -> CVStates:
     """``mu (N, d)``, ``gamma (N, d, d)`` with the :func:`cv_pattern` -> :class:`CVStates`."""
     n, d = mu.shape
