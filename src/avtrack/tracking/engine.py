@@ -296,11 +296,12 @@ class VEMEngine:
         return cv_split(self.mu, self.gamma, self._cv[0])
 
     def _cv_diagonal(self, lam: np.ndarray) -> CVStates:
-        """A diagonal ``lam (N, d)`` as the covariances of :class:`CVStates` with zero means."""
+        r"""A diagonal ``lam (N, d)`` as the covariances of :class:`CVStates` (``cov`` None:
+        :math:`\Lambda_{pv} = 0`) with no means."""
         n_vel, k, _ = self._cv
         lam_v = np.zeros((lam.shape[0], k))
         lam_v[:, :n_vel] = lam[:, k:]
-        return CVStates(None, None, lam[:, :k], lam_v, np.zeros_like(lam_v))
+        return CVStates(None, None, lam[:, :k], lam_v, None)
 
     def _store_cv(self, mu: np.ndarray, gamma: np.ndarray, states: CVStates) -> None:
         """Set the targets' states; ``mu`` and ``gamma`` become read-only so that the cached

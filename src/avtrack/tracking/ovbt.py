@@ -38,6 +38,7 @@ from avtrack.models.visual import (
 )
 from avtrack.tracking.birth import birth_candidates, select_births
 from avtrack.tracking.engine import VEMEngine
+from avtrack.tracking.vem import ones
 from avtrack.tracking.visibility import visibility_filter
 
 
@@ -254,22 +255,23 @@ class OVBTracker:
         if eng.n_targets:
             inf = eng.step([obs], self._dyn_var(eng.mu))  # Λ is diagonal
             # cap_box_covariance on the engine's states, when some std exceeds its cap
-            scale = cap_box_scale(eng.mu, np.diagonal(eng.gamma, axis1=1, axis2=2),
-                                  cfg.max_state_std)
+            scale = cap_box_scale(eng.mu, eng.gamma.diagonal(0, 1, 2), cfg.max_state_std)
             if scale.ravel()[scale.argmin()] < 1.0:
                 eng.scale_covariances(scale)
             resp, mass = inf.responsibilities[0], inf.mass[0][1:]
-            unassigned = np.flatnonzero(resp.argmax(axis=1) == 0)
+            unassigned = (resp.argmax(axis=1) == 0).nonzero()[0]
             # --- visibility (eqs. 3.31–3.32) and death (§3.1.4) ---------------------------
             if cfg.visibility_window == 1:
                 self.mass_history, nu = mass[:, None], mass
             else:
                 self.mass_history = np.concatenate([mass[:, None], self.mass_history[:, :-1]],
                                                    1)
-                nu = self.mass_history.sum(axis=1)
+                nu = self.mass_history.dot(ones(cfg.visibility_window))  # Σ over the window
             self.p_visible = visibility_filter(self.p_visible, nu, cfg.visibility_stay,
                                                cfg.visibility_lambda)
-            self.invisible_run = np.where(self.p_visible > 0.5, 0, self.invisible_run + 1)
+            run = self.invisible_run + 1
+            run[self.p_visible > 0.5] = 0  # frames invisible in a row
+            self.invisible_run = run
             keep = self.invisible_run < cfg.death_frames
             if np.count_nonzero(keep) < keep.shape[0]:
                 self._remove(keep)
@@ -293,7 +295,7 @@ class OVBTracker:
 
     def _birth(self) -> None:
         cfg = self.config
-        if any(len(p) == 0 for p in self._pool):
+        if 0 in [p.z.shape[0] for p in self._pool]:
             return  # every sequence needs one detection per pool frame
         pools = [(p.z, p.var) for p in self._pool]
         cands = birth_candidates(pools, self.transition, self._dyn_cov, self._velocity_var,

@@ -517,8 +517,9 @@ def predict_cv(states: CVStates, lam: CVStates, dt: float) -> CVStates:
     states : CVStates
         :math:`q(s_{t-1,n})`.
     lam : CVStates
-        :math:`\Lambda_{tn}` in the covariance fields; the control term :math:`c_{tn}` of
-        eq. 3.34 in the mean fields, or None there for no control.
+        :math:`\Lambda_{tn}` in the covariance fields (``cov`` None for
+        :math:`\Lambda_{pv} = 0`); the control term :math:`c_{tn}` of eq. 3.34 in the mean
+        fields, or None there for no control.
     dt : float
         :math:`\Delta t` of :func:`~avtrack.models.dynamics.constant_velocity_transition`.
 
@@ -527,17 +528,20 @@ def predict_cv(states: CVStates, lam: CVStates, dt: float) -> CVStates:
     CVStates
     """
     mu_p, mu_v, var_p, var_v, cov = states
-    mu_p = mu_p + dt * mu_v  # D μ: p + Δt v (v unchanged)
+    if dt == 1.0:  # (products by Δt = 1 are exact: the same numbers without them)
+        mu_p = mu_p + mu_v  # D μ: p + Δt v (v unchanged)
+        var_p = var_p + 2.0 * cov + var_v + lam.var_p  # Γ_pp + 2Δt Γ_pv + Δt² Γ_vv + Λ
+        cov = cov + var_v  # Γ_pv + Δt Γ_vv
+    else:
+        mu_p = mu_p + dt * mu_v
+        var_p = var_p + (2 * dt) * cov + (dt * dt) * var_v + lam.var_p
+        cov = cov + dt * var_v
+    if lam.cov is not None:
+        cov += lam.cov  # + Λ_pv
     if lam.mu_p is not None:  # + c
         mu_p += lam.mu_p
         mu_v = mu_v + lam.mu_v
-    return CVStates(
-        mu_p,
-        mu_v,
-        var_p + (2 * dt) * cov + (dt * dt) * var_v + lam.var_p,  # Γ_pp + 2Δt Γ_pv + Δt² Γ_vv + Λ
-        var_v + lam.var_v,  # Γ_vv + Λ_vv
-        cov + dt * var_v + lam.cov,  # Γ_pv + Δt Γ_vv + Λ_pv
-    )
+    return CVStates(mu_p, mu_v, var_p, var_v + lam.var_v, cov)  # Γ_vv + Λ_vv
 
 
 def e_s_step_cv(
