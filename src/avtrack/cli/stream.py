@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import os
 import sys
 from pathlib import Path
 
@@ -12,7 +11,7 @@ import numpy as np
 
 from avtrack.cli.base import HelpFormatter, add_common, build_config, read_config_mapping
 from avtrack.errors import InputError
-from avtrack.io.base import temp_output
+from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOA_HEADER, format_doa_row
 
 EXAMPLES = """\
@@ -114,29 +113,6 @@ def load_stream_config(path: Path | None, method: str, tracker: str) -> tuple[ob
     return loc, trk
 
 
-@contextlib.contextmanager
-def _row_sink(output: Path | None):
-    """stdout, or a temporary file renamed onto ``output`` when the block ends (also on
-    Ctrl-C; a killed process leaves only the temporary file)."""
-    if output is None:
-        yield sys.stdout
-        return
-    output.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = temp_output(output)
-    try:
-        with os.fdopen(fd, "w") as fh:
-            try:
-                yield fh
-            finally:  # keep the complete rows written so far, even when interrupted
-                fh.flush()
-                os.fsync(fh.fileno())
-        os.replace(tmp, output)
-    except BaseException:
-        with contextlib.suppress(FileNotFoundError):
-            os.unlink(tmp)
-        raise
-
-
 def run(args: argparse.Namespace) -> int:
     import time
 
@@ -166,7 +142,12 @@ def run(args: argparse.Namespace) -> int:
                 f"{stream.latency_s * 1e3:.0f} ms",
                 file=sys.stderr,
             )
-        with _row_sink(args.output) as sink:
+        # -o: rows go to a temporary file renamed onto the output when the stream ends -- also
+        # on Ctrl-C, caught inside the block (complete rows only); a killed run leaves no file
+        sink_cm = contextlib.nullcontext(sys.stdout) if args.output is None else atomic_write(
+            args.output
+        )
+        with sink_cm as sink:
             sink.write(DOA_HEADER + "\n")
             try:
                 for x in wav_blocks(handle, block):
