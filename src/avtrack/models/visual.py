@@ -21,6 +21,7 @@ import numpy as np
 
 from avtrack.models.appearance import AppearanceLikelihood
 from avtrack.models.base import DiagonalObservationModel
+from avtrack.tracking.vem import e_z_normalise, exclusive_projection
 
 BOX_DIM = 4
 STATE_DIM = 6
@@ -206,16 +207,39 @@ class BoxObservationModel(DiagonalObservationModel):
 
     def log_likelihood_diagonal(self, obs: BoxObservations, mu: np.ndarray, var: np.ndarray,
                                 marginal: bool = False):
+        log_tau = np.empty((len(obs), mu.shape[0]))
+        self._log_tau_diagonal(obs, mu, var, marginal, log_tau)
+        return log_tau, self._log_clutter(len(obs))
+
+    def responsibilities_diagonal(
+        self, obs: BoxObservations, mu: np.ndarray, var: np.ndarray, log_prior: np.ndarray,
+        marginal: bool = False, exclusive: bool = False,
+    ) -> np.ndarray:
+        """:meth:`DiagonalObservationModel.responsibilities_diagonal`, with the log-likelihoods
+        written straight into the target columns of the E-Z array (the same numbers)."""
+        m = len(obs)
+        log_post = np.empty((m, mu.shape[0] + 1))
+        log_post[:, 0] = self.log_clutter_density  # log u(o), clutter
+        self._log_tau_diagonal(obs, mu, var, marginal, log_post[:, 1:])
+        alpha = e_z_normalise(log_post, log_prior)  # eq. 2.25 (eq. 2.8 if marginal)
+        return exclusive_projection(alpha) if exclusive else alpha
+
+    def _log_tau_diagonal(self, obs: BoxObservations, mu: np.ndarray, var: np.ndarray,
+                          marginal: bool, out: np.ndarray) -> None:
+        r""":math:`\log\tau_{tmn}` of :meth:`log_likelihood_diagonal` into ``out (M, N)``."""
         r = obs.z[:, None, :] - mu  # o - Pμ, (M, N, 4)
         # (the sums over the 4 components are products with (-½, -½, -½, -½))
         if marginal:  # eq. 2.8: N(o; Pμ, PΓPᵀ + Φ) with PΓPᵀ + Φ = diag(s)
             s = obs.var[:, None, :] + var  # (M, N, 4)
-            log_tau = (r * r / s + np.log(s)).dot(_MINUS_HALF) - 0.5 * BOX_DIM * _LOG_2PI
+            np.subtract((r * r / s + np.log(s)).dot(_MINUS_HALF), 0.5 * BOX_DIM * _LOG_2PI,
+                        out=out)
         else:  # eq. 3.21 / 2.25: N(o; Pμ, Φ) exp(-½ tr(Pᵀ Φ⁻¹ P Γ)), Φ and PΓPᵀ diagonal:
             # -½ Σ_k (r_k² + Γ_kk) / φ_k + log normaliser
-            log_tau = ((r * r + var) * obs.inv_var[:, None, :]).dot(_MINUS_HALF)
-            log_tau += obs.log_normaliser[:, None]
-        return self._with_appearance(obs, log_tau), self._log_clutter(len(obs))
+            np.add(((r * r + var) * obs.inv_var[:, None, :]).dot(_MINUS_HALF),
+                   obs.log_normaliser[:, None], out=out)
+        if (self.appearance is not None and obs.appearance is not None
+                and self.references is not None and len(self.references) == out.shape[1]):
+            out += self.appearance.log_ratio(obs.appearance, self.references)  # eq. 3.21
 
     def _log_clutter(self, m: int) -> np.ndarray:
         r"""``(m,)`` read-only array of :math:`\log u(o)`, shared between calls."""

@@ -156,7 +156,8 @@ def _beam(
     that pass the gate, and their scores."""
     m = maha.shape[1]
     loglik = -0.5 * (maha + logdet + k * _LOG_2PI)  # log N(o_m; P μ, S)
-    total = np.where(maha < gate, score[:, None] + loglik, -np.inf)
+    total = score[:, None] + loglik
+    total[~(maha < gate)] = -np.inf  # outside the gate
     # beam: best chains for each observation
     order = np.argsort(-total, axis=0)[:beam]  # (beam, M)
     ci = order.ravel()
@@ -217,7 +218,7 @@ def _filter_cv(
             return []
         mu_p, mu_v, a, b, c = st
         lam = dynamics_var(np.concatenate([mu_p, mu_v[:, :n_vel]], axis=1))  # Λ diagonal
-        lam_v = np.zeros_like(b)
+        lam_v = np.zeros(b.shape)
         lam_v[:, :n_vel] = lam[:, k:]
         # Kalman prediction, eq. 2.21: D μ and D Γ Dᵀ + Λ (Λ_pv = 0)
         cov = c + dt * b  # c' = c + Δt b

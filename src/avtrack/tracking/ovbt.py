@@ -329,7 +329,7 @@ class OVBTracker:
         for f, pool in enumerate(self._pool):
             used = np.zeros(len(pool), dtype=bool)
             used[[int(b.indices[f]) for b in born]] = True
-            self._pool[f] = pool.subset(np.flatnonzero(~used))
+            self._pool[f] = pool.subset((~used).nonzero()[0])
 
 
 def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -93,11 +93,17 @@ def e_z_step(log_tau: np.ndarray, log_clutter: np.ndarray, log_prior: np.ndarray
     log_post = np.empty((m, n + 1))
     log_post[:, 0] = log_clutter
     log_post[:, 1:] = log_tau
-    log_post += log_prior  # log τ_tmn η_mn
+    return e_z_normalise(log_post, log_prior)
+
+
+def e_z_normalise(log_tau: np.ndarray, log_prior: np.ndarray) -> np.ndarray:
+    r""":func:`e_z_step` on ``log_tau (M, N + 1)``, the log-likelihoods with the clutter's in
+    column 0, in place: returns ``log_tau`` holding :math:`\alpha_{tmn}`."""
+    log_tau += log_prior  # log τ_tmn η_mn
     # shifted by the row maximum so that exp cannot overflow (in place: small arrays)
-    log_post -= log_post.max(axis=1, keepdims=True)
-    post = np.exp(log_post, out=log_post)
-    post /= post.dot(ones(n + 1))[:, None]  # α_tmn = τη / Σ_i τ_tmi η_mi, eq. 2.25
+    log_tau -= log_tau.max(axis=1, keepdims=True)
+    post = np.exp(log_tau, out=log_tau)
+    post /= post.dot(ones(post.shape[1]))[:, None]  # α_tmn = τη / Σ_i τ_tmi η_mi, eq. 2.25
     return post
 
 
@@ -243,7 +249,7 @@ def _kl_projection(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         s = ones(m).dot(q)
         s[0] = 0.0  # clutter is unconstrained
         # columns at ν_n = 0 with s_n <= 1 meet their conditions and stay at ν_n = 0
-        work = np.flatnonzero((nu > 0.0) | (s > 1.0))
+        work = ((nu > 0.0) | (s > 1.0)).nonzero()[0]
         if work.shape[0] == 0:  # (only possible at ν = 0, after the clutter floor)
             return q, nu
         slack = 1.0 - s[work]  # the gradient of F
