@@ -7,9 +7,14 @@ import numpy as np
 import pytest
 
 from avtrack.models.appearance import BhattacharyyaAppearance
-from avtrack.models.dynamics import box_dynamics_covariance, constant_velocity_transition
+from avtrack.models.dynamics import (
+    box_dynamics_covariance,
+    box_dynamics_variance,
+    constant_velocity_transition,
+)
 from avtrack.models.visual import BoxObservationModel, BoxObservations, box_observation_variance
 from avtrack.tracking.engine import VEMEngine
+from avtrack.tracking.vem import predict_cv
 
 D = constant_velocity_transition(4, 2)
 P = np.hstack([np.eye(4), np.zeros((4, 2))])
@@ -104,6 +109,32 @@ def test_adding_and_removing_targets_keeps_arrays_aligned():
     assert inf.responsibilities[0].shape == (2, 3)
     # observation 0 is target 5 (second), observation 1 is target 1 (first)
     np.testing.assert_array_equal(np.argmax(inf.responsibilities[0], axis=1), [2, 1])
+
+
+@pytest.mark.parametrize("exclusive", [False, True])
+def test_single_model_iterations_equal_the_general_loop(exclusive):
+    """The one-model VEM loop of the constant-velocity path is the per-model loop, exactly
+    (crowded frame: two detections of one target, appearance, every iteration kind)."""
+    rng = np.random.default_rng(4)
+    model = BoxObservationModel(-20.0, BhattacharyyaAppearance(), appearance_update=0.1)
+    engine = VEMEngine(D, [model], n_iter=4, exclusive=exclusive)
+    mu = np.column_stack([rng.uniform(50, 300, (3, 2)), rng.uniform(30, 60, (3, 2)),
+                          rng.normal(size=(3, 2))])
+    gamma = np.stack([np.diag(rng.uniform(1, 9, 6)) for _ in range(3)])
+    refs = rng.uniform(size=(3, 5))
+    engine.add_targets([1, 2, 3], mu, gamma, [refs])
+    z = np.vstack([mu[[0, 0, 2], :4] + rng.normal(scale=2.0, size=(3, 4)), [400, 50, 40, 40]])
+    obs = BoxObservations(z, box_observation_variance(z), rng.uniform(size=(4, 5)))
+    states = engine._cached_cv_states()
+    assert states is not None  # (the constant-velocity path applies)
+    pred = predict_cv(states, engine._cv_diagonal(box_dynamics_variance(mu)), 1.0)
+    post, resps, mass = engine._iterate_cv([obs], pred)
+    post_one, resps_one, mass_one = engine._iterate_cv_one([obs], pred)
+    for a, b in zip(post_one, post, strict=True):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(resps_one[0], resps[0])
+    np.testing.assert_array_equal(mass_one[0], mass[0])
+    assert resps[0][:, 1].sum() > 1.2 or exclusive  # the crowded case is exercised
 
 
 @pytest.mark.parametrize(("kwargs", "match"), [

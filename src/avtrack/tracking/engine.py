@@ -178,7 +178,7 @@ class VEMEngine:
             return
         n_vel, k, _ = self._cv
         s_p = scale[:, :k]
-        s_v = np.zeros_like(s_p)
+        s_v = np.zeros(s_p.shape)
         s_v[:, :n_vel] = scale[:, k:]
         self._store_cv(self.mu, gamma, states._replace(
             var_p=states.var_p * s_p * s_p,  # s_p Γ_pp s_p
@@ -325,6 +325,19 @@ class VEMEngine:
             c_v[:, :n_vel] = control[:, k:]
             lam = lam._replace(mu_p=control[:, :k], mu_v=c_v)
         pred = predict_cv(states, lam, dt)  # D μ + c, D Γ Dᵀ + Λ: eq. 2.21
+        iterate = self._iterate_cv_one if len(self.models) == 1 else self._iterate_cv
+        post, resps, mass = iterate(observations, pred)
+        mu, gamma = cv_join(post, n_vel)
+        inference = self._finish(observations, mu, gamma, resps, mass)
+        self._store_cv(mu, gamma, post)
+        return inference
+
+    def _iterate_cv(
+        self, observations: Sequence[Any], pred: CVStates,
+    ) -> tuple[CVStates, list[np.ndarray], list[np.ndarray]]:
+        """The VEM iterations of :meth:`_step_cv` from the prediction ``pred``: the last
+        posterior, and the responsibilities and assigned masses of each model."""
+        n = pred.mu_p.shape[0]
         post = pred  # E-Z initialisation, thesis §4.6.1
         pairs = list(zip(self.models, observations, strict=True))
         log_priors = [np.full(n + 1, -math.log(n + 1))] * len(pairs)  # η = 1/(N+1)
@@ -347,10 +360,29 @@ class VEMEngine:
             mass = [model.assigned_mass(r) for (model, _), r in zip(pairs, resps, strict=True)]
             if self.update_priors and it < last:  # M step, eq. 3.29 (unused after the last)
                 log_priors = [m_step_priors(a) for a in mass]
-        mu, gamma = cv_join(post, n_vel)
-        inference = self._finish(observations, mu, gamma, resps, mass)
-        self._store_cv(mu, gamma, post)
-        return inference
+        return post, resps, mass
+
+    def _iterate_cv_one(
+        self, observations: Sequence[Any], pred: CVStates,
+    ) -> tuple[CVStates, list[np.ndarray], list[np.ndarray]]:
+        """:meth:`_iterate_cv` for a single observation model, without the per-model lists
+        and loops (whose overhead is some 5% of an OVBT frame); the same updates."""
+        (model,), (obs,) = self.models, observations
+        post = pred  # E-Z initialisation, thesis §4.6.1
+        log_prior = np.full(pred.mu_p.shape[0] + 1, -math.log(pred.mu_p.shape[0] + 1))  # η
+        last, exclusive, marginal = self.n_iter - 1, self.exclusive, self.marginal_init
+        update = self.update_priors
+        for it in range(self.n_iter):
+            # E-Z step, eq. 2.25 (eq. 2.8 on the prediction)
+            resp = model.responsibilities_diagonal(obs, post.mu_p, post.var_p, log_prior,
+                                                   marginal and it == 0, exclusive)
+            info, vec = model.information_diagonal(obs, resp)  # J_n and h_n, eq. 4.26
+            # E-S step, eqs. 2.23–2.24 (before the last iteration, only what E-Z reads)
+            post = e_s_step_cv(pred, info, vec, observed_only=it < last)
+            mass = model.assigned_mass(resp)
+            if update and it < last:  # M step, eq. 3.29 (unused after the last)
+                log_prior = m_step_priors(mass)
+        return post, [resp], [mass]
 
     def _finish(
         self, observations: Sequence[Any], mu: np.ndarray, gamma: np.ndarray,
