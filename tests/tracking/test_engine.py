@@ -137,6 +137,45 @@ def test_single_model_iterations_equal_the_general_loop(exclusive):
     assert resps[0][:, 1].sum() > 1.2 or exclusive  # the crowded case is exercised
 
 
+def test_split_states_between_frames_equal_plain_arrays():
+    """The constant-velocity path keeps its states split between frames (mu, gamma built
+    when read): removing and scaling targets there gives the frames of an engine whose
+    states are re-assigned as plain arrays after every operation."""
+    rng = np.random.default_rng(5)
+    engines = [VEMEngine(D, [BoxObservationModel(-20.0)], exclusive=True) for _ in range(2)]
+    mu = np.column_stack([rng.uniform(50, 300, (4, 2)), rng.uniform(30, 60, (4, 2)),
+                          rng.normal(size=(4, 2))])
+    gamma = np.stack([np.diag(rng.uniform(1, 9, 6)) for _ in range(4)])
+    for engine in engines:
+        engine.add_targets([1, 2, 3, 4], mu, gamma)
+
+    def as_arrays(engine):  # plain (writable) arrays: the split form is dropped
+        engine.mu, engine.gamma = engine.mu.copy(), engine.gamma.copy()
+
+    for frame in range(4):
+        z = engines[0].mu[:, :4] + rng.normal(scale=2.0, size=(engines[0].n_targets, 4))
+        obs = BoxObservations(z, box_observation_variance(z))
+        infs = [e.step([obs], box_dynamics_variance(e.mu)) for e in engines]
+        as_arrays(engines[1])
+        assert not engines[0].mu.flags.writeable and not engines[0].gamma.flags.writeable
+        np.testing.assert_array_equal(infs[0].mu, infs[1].mu)
+        np.testing.assert_array_equal(infs[0].gamma, infs[1].gamma)
+        np.testing.assert_array_equal(engines[0].variances,
+                                      np.diagonal(engines[1].gamma, axis1=1, axis2=2))
+        if frame == 1:  # halve the velocity std of every target
+            for e in engines:
+                e.scale_covariances(np.tile([1.0, 1, 1, 1, 0.5, 0.5], (e.n_targets, 1)))
+            as_arrays(engines[1])
+        if frame == 2:
+            for e in engines:
+                e.remove_targets(np.array([True, False, True, True]))
+            as_arrays(engines[1])
+        for e in engines[1:]:
+            np.testing.assert_array_equal(e.mu, engines[0].mu)
+            np.testing.assert_array_equal(e.gamma, engines[0].gamma)
+    assert engines[0].n_targets == 3
+
+
 @pytest.mark.parametrize(("kwargs", "match"), [
     ({"transition": np.ones((6, 4))}, r"transition must be square \(d, d\), got \(6, 4\)"),
     ({"n_iter": 0}, "n_iter must be >= 1, got 0"),

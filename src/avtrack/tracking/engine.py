@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -21,10 +21,12 @@ import numpy as np
 from avtrack.models.base import DiagonalObservationModel, ObservationModel
 from avtrack.tracking.vem import (
     CVStates,
-    cv_join,
+    cv_covariance,
+    cv_mean,
     cv_pattern,
     cv_split,
     cv_transition,
+    cv_variance,
     e_s_step,
     e_s_step_cv,
     m_step_dynamics,
@@ -35,6 +37,44 @@ from avtrack.tracking.vem import (
 )
 
 
+class _Posterior:
+    """The targets' Gaussian states ``mu (N, d)`` and ``gamma (N, d, d)``: arrays, or, after
+    a constant-velocity step, their :class:`CVStates` (``states``), from which the arrays are
+    joined, read-only, when first read. Not changed once made: a new state is a new object."""
+
+    __slots__ = ("_gamma", "_mu", "n_vel", "states")
+
+    def __init__(
+        self, mu: np.ndarray | None, gamma: np.ndarray | None, states: CVStates | None = None,
+        n_vel: int = 0,
+    ):
+        self._mu, self._gamma, self.states, self.n_vel = mu, gamma, states, n_vel
+
+    @property
+    def mu(self) -> np.ndarray:
+        if self._mu is None:
+            self._mu = _read_only(cv_mean(self.states, self.n_vel))
+        return self._mu
+
+    @property
+    def gamma(self) -> np.ndarray:
+        if self._gamma is None:
+            self._gamma = _read_only(cv_covariance(self.states, self.n_vel))
+        return self._gamma
+
+    @property
+    def variances(self) -> np.ndarray:
+        """The diagonal ``(N, d)`` of ``gamma``."""
+        if self._gamma is None:
+            return cv_variance(self.states, self.n_vel)
+        return self._gamma.diagonal(0, 1, 2)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
 @dataclass(frozen=True)
 class FrameInference:
     """What one frame of VEM produced.
@@ -43,6 +83,8 @@ class FrameInference:
     ----------
     mu : ndarray (N, d)
     gamma : ndarray (N, d, d)
+        The posterior states (read-only arrays after a constant-velocity step, built when
+        first read).
     responsibilities : tuple of ndarray
         One per observation model, as returned by its ``responsibilities`` (``(M, N + 1)`` for
         the plain models, clutter in column 0).
@@ -50,10 +92,17 @@ class FrameInference:
         Summed responsibilities per class for each model, clutter first.
     """
 
-    mu: np.ndarray
-    gamma: np.ndarray
     responsibilities: tuple[np.ndarray, ...]
     mass: tuple[np.ndarray, ...]
+    _posterior: _Posterior = field(repr=False)
+
+    @property
+    def mu(self) -> np.ndarray:
+        return self._posterior.mu
+
+    @property
+    def gamma(self) -> np.ndarray:
+        return self._posterior.gamma
 
 
 class VEMEngine:
@@ -93,8 +142,8 @@ class VEMEngine:
     (as they do for box trackers), :meth:`step` runs the same updates in the closed forms of
     :func:`~avtrack.tracking.vem.predict_cv` and :func:`~avtrack.tracking.vem.e_s_step_cv`,
     and keeps the states in that split form between frames: after such a step ``mu`` and
-    ``gamma`` are read-only (assign new arrays, or use :meth:`scale_covariances`, to change
-    them).
+    ``gamma`` are read-only arrays built when first read (assign new arrays, or use
+    :meth:`scale_covariances`, to change them).
     """
 
     def __init__(
@@ -123,12 +172,8 @@ class VEMEngine:
         self._cv = _constant_velocity(transition, self.models, self.dynamics_mstep)
         if self._cv is not None:
             self._cv_off = ~cv_pattern(d, self._cv[0])  # entries a CV Γ or Λ keeps at 0
-        # (mu, gamma, their CVStates) as left by the last step: reused while ``mu`` and ``gamma``
-        # are those very (read-only) arrays
-        self._cv_cache: tuple[np.ndarray, np.ndarray, CVStates] | None = None
         self.ids = np.zeros(0, dtype=np.int64)
-        self.mu = np.zeros((0, d))
-        self.gamma = np.zeros((0, d, d))
+        self._post = _Posterior(np.zeros((0, d)), np.zeros((0, d, d)))
 
     @property
     def dim(self) -> int:
@@ -137,6 +182,30 @@ class VEMEngine:
     @property
     def n_targets(self) -> int:
         return int(self.ids.shape[0])
+
+    @property
+    def mu(self) -> np.ndarray:
+        """``(N, d)`` posterior means."""
+        return self._post.mu
+
+    @mu.setter
+    def mu(self, value: np.ndarray) -> None:
+        self._post = _Posterior(value, self._post.gamma)
+
+    @property
+    def gamma(self) -> np.ndarray:
+        """``(N, d, d)`` posterior covariances."""
+        return self._post.gamma
+
+    @gamma.setter
+    def gamma(self, value: np.ndarray) -> None:
+        self._post = _Posterior(self._post.mu, value)
+
+    @property
+    def variances(self) -> np.ndarray:
+        """``(N, d)`` diagonal of :attr:`gamma` (without building ``gamma`` after a
+        constant-velocity step)."""
+        return self._post.variances
 
     def add_targets(
         self, ids: np.ndarray, mu: np.ndarray, gamma: np.ndarray,
@@ -153,8 +222,8 @@ class VEMEngine:
         if not set(ids.tolist()).isdisjoint(self.ids.tolist()):  # (np.isin: 10x slower here)
             raise ValueError(f"target ids already in use: {ids[np.isin(ids, self.ids)]}")
         self.ids = np.concatenate([self.ids, ids])
-        self.mu = np.vstack([self.mu, mu])
-        self.gamma = np.concatenate([self.gamma, symmetrize(gamma)])
+        self._post = _Posterior(np.vstack([self.mu, mu]),
+                                np.concatenate([self.gamma, symmetrize(gamma)]))
         inits = model_inits if model_inits is not None else [None] * len(self.models)
         for model, init in zip(self.models, inits, strict=True):
             model.add_targets(k, init)
@@ -162,7 +231,15 @@ class VEMEngine:
     def remove_targets(self, keep: np.ndarray) -> None:
         """Keep only the targets where the boolean mask ``keep (N,)`` is True."""
         keep = np.asarray(keep, dtype=bool).reshape(self.n_targets)
-        self.ids, self.mu, self.gamma = self.ids[keep], self.mu[keep], self.gamma[keep]
+        self.ids = self.ids[keep]
+        post = self._post
+        if post.states is None:
+            self._post = _Posterior(post.mu[keep], post.gamma[keep])
+        else:  # (the split form stays: no need to build gamma)
+            self._post = _Posterior(
+                None if post._mu is None else _read_only(post._mu[keep]),
+                None if post._gamma is None else _read_only(post._gamma[keep]),
+                CVStates(*(a[keep] for a in post.states)), post.n_vel)
         for model in self.models:
             model.remove_targets(keep)
 
@@ -171,19 +248,18 @@ class VEMEngine:
         ``scale (N, d)`` (e.g. the cap of
         :func:`~avtrack.models.dynamics.cap_box_covariance`)."""
         scale = np.asarray(scale, dtype=float).reshape(self.n_targets, self.dim)
-        gamma = self.gamma * scale[:, :, None] * scale[:, None, :]  # S Γ S
-        states = self._cached_cv_states()
+        states = self._post.states
         if states is None:
-            self.gamma = gamma
+            self.gamma = self.gamma * scale[:, :, None] * scale[:, None, :]  # S Γ S
             return
         n_vel, k, _ = self._cv
         s_p = scale[:, :k]
         s_v = np.zeros(s_p.shape)
         s_v[:, :n_vel] = scale[:, k:]
-        self._store_cv(self.mu, gamma, states._replace(
+        self._post = _Posterior(self._post._mu, None, states._replace(  # (the means stay)
             var_p=states.var_p * s_p * s_p,  # s_p Γ_pp s_p
             var_v=states.var_v * s_v * s_v,  # s_v Γ_vv s_v
-            cov=states.cov * s_p * s_v))  # s_p Γ_pv s_v
+            cov=states.cov * s_p * s_v), n_vel)  # s_p Γ_pv s_v
 
     def step(
         self, observations: Sequence[Any], lam: np.ndarray, control: np.ndarray | None = None,
@@ -284,16 +360,16 @@ class VEMEngine:
             if self.dynamics_mstep and n:  # M step, eq. 2.27
                 lam = m_step_dynamics(mu, gamma, mu_pred, dgd, floor)
                 prec_pred = symmetrize(np.linalg.inv(dgd + lam))
-        return self._finish(observations, mu, gamma, resps, mass)
+        return self._finish(observations, _Posterior(mu, gamma), resps, mass)
 
     def _cached_cv_states(self) -> CVStates | None:
         """The targets as :class:`CVStates` when the constant-velocity path applies, else None."""
-        cache = self._cv_cache
-        if cache is not None and cache[0] is self.mu and cache[1] is self.gamma:
-            return cache[2]
-        if self._cv is None or self.gamma[:, self._cv_off].any():
+        post = self._post
+        if post.states is not None:
+            return post.states
+        if self._cv is None or post.gamma[:, self._cv_off].any():
             return None
-        return cv_split(self.mu, self.gamma, self._cv[0])
+        return cv_split(post.mu, post.gamma, self._cv[0])
 
     def _cv_diagonal(self, lam: np.ndarray) -> CVStates:
         r"""A diagonal ``lam (N, d)`` as the covariances of :class:`CVStates` (``cov`` None:
@@ -302,14 +378,6 @@ class VEMEngine:
         lam_v = np.zeros((lam.shape[0], k))
         lam_v[:, :n_vel] = lam[:, k:]
         return CVStates(None, None, lam[:, :k], lam_v, None)
-
-    def _store_cv(self, mu: np.ndarray, gamma: np.ndarray, states: CVStates) -> None:
-        """Set the targets' states; ``mu`` and ``gamma`` become read-only so that the cached
-        split form cannot go stale (assign new arrays to change them)."""
-        mu.flags.writeable = False
-        gamma.flags.writeable = False
-        self.mu, self.gamma = mu, gamma
-        self._cv_cache = (mu, gamma, states)
 
     def _step_cv(
         self, observations: Sequence[Any], states: CVStates, lam: CVStates,
@@ -327,10 +395,7 @@ class VEMEngine:
         pred = predict_cv(states, lam, dt)  # D μ + c, D Γ Dᵀ + Λ: eq. 2.21
         iterate = self._iterate_cv_one if len(self.models) == 1 else self._iterate_cv
         post, resps, mass = iterate(observations, pred)
-        mu, gamma = cv_join(post, n_vel)
-        inference = self._finish(observations, mu, gamma, resps, mass)
-        self._store_cv(mu, gamma, post)
-        return inference
+        return self._finish(observations, _Posterior(None, None, post, n_vel), resps, mass)
 
     def _iterate_cv(
         self, observations: Sequence[Any], pred: CVStates,
@@ -385,14 +450,16 @@ class VEMEngine:
         return post, [resp], [mass]
 
     def _finish(
-        self, observations: Sequence[Any], mu: np.ndarray, gamma: np.ndarray,
-        resps: list[np.ndarray], mass: list[np.ndarray],
+        self, observations: Sequence[Any], post: _Posterior, resps: list[np.ndarray],
+        mass: list[np.ndarray],
     ) -> FrameInference:
         """Store the frame's posterior and let the models update their per-target parameters."""
-        self.mu, self.gamma = mu, gamma
+        self._post = post
         for model, obs, resp in zip(self.models, observations, resps, strict=True):
             model.update_targets(obs, resp)
-        return FrameInference(mu.copy(), gamma.copy(), tuple(resps), tuple(mass))
+        if post.states is None:  # (writable arrays: the inference keeps its own)
+            post = _Posterior(post.mu.copy(), post.gamma.copy())
+        return FrameInference(tuple(resps), tuple(mass), post)
 
 
 def _constant_velocity(

@@ -255,7 +255,7 @@ class OVBTracker:
         if eng.n_targets:
             inf = eng.step([obs], self._dyn_var(eng.mu))  # Λ is diagonal
             # cap_box_covariance on the engine's states, when some std exceeds its cap
-            scale = cap_box_scale(eng.mu, eng.gamma.diagonal(0, 1, 2), cfg.max_state_std)
+            scale = cap_box_scale(eng.mu, eng.variances, cfg.max_state_std)
             if scale.ravel()[scale.argmin()] < 1.0:
                 eng.scale_covariances(scale)
             resp, mass = inf.responsibilities[0], inf.mass[0][1:]

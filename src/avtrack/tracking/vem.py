@@ -491,15 +491,29 @@ def cv_split(mu: np.ndarray, gamma: np.ndarray, n_vel: int) -> CVStates:
 
 def cv_join(states: CVStates, n_vel: int) -> tuple[np.ndarray, np.ndarray]:
     """Inverse of :func:`cv_split`: :class:`CVStates` -> ``mu (N, d)``, ``gamma (N, d, d)``."""
+    return cv_mean(states, n_vel), cv_covariance(states, n_vel)
+
+
+def cv_mean(states: CVStates, n_vel: int) -> np.ndarray:
+    """The means ``mu (N, d)`` of :func:`cv_join`."""
+    return np.concatenate([states.mu_p, states.mu_v[:, :n_vel]], axis=1)
+
+
+def cv_variance(states: CVStates, n_vel: int) -> np.ndarray:
+    """The diagonal ``(N, d)`` of the covariances of :func:`cv_join`."""
+    return np.concatenate([states.var_p, states.var_v[:, :n_vel]], axis=1)
+
+
+def cv_covariance(states: CVStates, n_vel: int) -> np.ndarray:
+    """The covariances ``gamma (N, d, d)`` of :func:`cv_join`."""
     n, k = states.mu_p.shape
     d = k + n_vel
-    mu = np.concatenate([states.mu_p, states.mu_v[:, :n_vel]], axis=1)
     gamma = np.zeros((n, d * d))
     # diagonal, then Γ[i, k + i] and Γ[k + i, i]
     gamma[:, _cv_flat_index(k, n_vel)] = np.concatenate(
         [states.var_p, states.var_v[:, :n_vel], states.cov[:, :n_vel], states.cov[:, :n_vel]],
         axis=1)
-    return mu, gamma.reshape(n, d, d)
+    return gamma.reshape(n, d, d)
 
 
 @functools.cache
