@@ -63,6 +63,7 @@ def run_av(args: argparse.Namespace) -> int:
     from avtrack.metrics.doa import evaluate_doa
     from avtrack.metrics.mot import evaluate_mot
     from avtrack.simulate.scene import simulate_scene, write_scene
+    from avtrack.tracking.doa_base import PEAK_FLOOR, DOASequence, make_tracker
     from avtrack.tracking.vavit import load_scene, track_scene
     from avtrack.viz import report
     from avtrack.viz.video import render_scene_video
@@ -95,6 +96,11 @@ def run_av(args: argparse.Namespace) -> int:
     loc = make_localizer("dprtf-eg", array)
     heat = localize_signal(loc, scene.audio, None, args.quiet)
     doa = peak_table(heat, loc.grid, loc.default_threshold)
+    seq = DOASequence.from_weights(heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s,
+                                   step=4, peaks_only=True, floor=PEAK_FLOOR)  # fmt: skip
+    doa_tracks = make_tracker("vonmises", frame_period_s=4 * loc.stft_config.frame_period_s).run(
+        seq
+    )
 
     _progress(4, args.quiet)
     gt = read_mot(scene_dir / "gt" / "gt.txt", "gt")
@@ -119,8 +125,10 @@ def run_av(args: argparse.Namespace) -> int:
         "Head tracks (image x over time)": report.trajectories_figure(
             gt, res.tracks, scene.scenario["fps"], int(cam["width"])
         ),
-        "DOA heat map (DPRTF-EG) and speaking ground truth": report.heatmap_figure(
-            heat.weights, heat.time_s, loc.grid.azimuth_deg, truth
+        "DOA heat map (DPRTF-EG), speaking ground truth (cyan), von Mises DOA tracks": (
+            report.heatmap_figure(
+                heat.weights, heat.time_s, loc.grid.azimuth_deg, truth, doa_tracks
+            )
         ),
         "Who speaks when: ground truth and diarization": report.timeline_figure(ref, res.speech),
     }

@@ -59,9 +59,22 @@ def trajectories_figure(gt: MOTData, tracks: MOTData, fps: float, width: int) ->
 
 
 def heatmap_figure(
-    weights: np.ndarray, times: np.ndarray, azimuths: np.ndarray, truth=None
+    weights: np.ndarray, times: np.ndarray, azimuths: np.ndarray, truth=None, tracks=None
 ) -> str:
-    """DOA heat map (time x azimuth) with the speaking ground truth on top."""
+    """DOA heat map (time x azimuth) with the speaking ground truth and the DOA tracks on top.
+
+    Parameters
+    ----------
+    weights : ndarray (T, D)
+        Heat map of each frame over the candidate azimuths.
+    times : ndarray (T,)
+    azimuths : ndarray (D,)
+        Candidate azimuths, degrees.
+    truth : DOATable, optional
+        Ground truth; its active (speaking) rows are drawn in cyan.
+    tracks : DOATable, optional
+        Tracker output: speaking estimates as dots coloured by track id, silent ones faint.
+    """
     fig, ax = _figure()
     order = np.argsort(azimuths)
     ax.imshow(weights[:, order].T, aspect="auto", origin="lower", cmap="magma",
@@ -69,6 +82,17 @@ def heatmap_figure(
     if truth is not None and len(truth):
         on = truth.active
         ax.plot(truth.time_s[on], truth.azimuth_deg[on], ",", color="cyan")
+    if tracks is not None and len(tracks):
+        cmap = __import__("matplotlib").colormaps["tab10"]
+        for k, tid in enumerate(np.unique(tracks.ids)):
+            m = tracks.ids == tid
+            on, off = m & tracks.active, m & ~tracks.active
+            ax.plot(tracks.time_s[on], tracks.azimuth_deg[on], ".", ms=2.5,
+                    color=cmap(k % 10), label=f"track {tid}")  # fmt: skip
+            ax.plot(tracks.time_s[off], tracks.azimuth_deg[off], ".", ms=1, alpha=0.35,
+                    color=cmap(k % 10))  # fmt: skip
+        if len(np.unique(tracks.ids)) <= 12:
+            ax.legend(loc="upper right", fontsize=7, ncol=6, markerscale=3)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("azimuth (deg)")
     fig.tight_layout()
