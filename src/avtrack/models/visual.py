@@ -217,8 +217,7 @@ class BoxObservationModel(DiagonalObservationModel):
     ) -> np.ndarray:
         """:meth:`DiagonalObservationModel.responsibilities_diagonal`, with the log-likelihoods
         written straight into the target columns of the E-Z array (the same numbers)."""
-        m = len(obs)
-        log_post = np.empty((m, mu.shape[0] + 1))
+        log_post = np.empty((obs.z.shape[0], mu.shape[0] + 1))
         log_post[:, 0] = self.log_clutter_density  # log u(o), clutter
         self._log_tau_diagonal(obs, mu, var, marginal, log_post[:, 1:])
         alpha = e_z_normalise(log_post, log_prior)  # eq. 2.25 (eq. 2.8 if marginal)

@@ -101,7 +101,7 @@ def e_z_normalise(log_tau: np.ndarray, log_prior: np.ndarray) -> np.ndarray:
     column 0, in place: returns ``log_tau`` holding :math:`\alpha_{tmn}`."""
     log_tau += log_prior  # log τ_tmn η_mn
     # shifted by the row maximum so that exp cannot overflow (in place: small arrays)
-    log_tau -= log_tau.max(axis=1, keepdims=True)
+    log_tau -= np.maximum.reduce(log_tau, axis=1, keepdims=True)  # (ndarray.max: slower)
     post = np.exp(log_tau, out=log_tau)
     post /= post.dot(ones(post.shape[1]))[:, None]  # α_tmn = τη / Σ_i τ_tmi η_mi, eq. 2.25
     return post
@@ -214,7 +214,9 @@ def exclusive_projection(
     if alpha.shape[1] < 2 or (n_iter is not None and n_iter < 1):
         return alpha
     bound = 1.0 + (FEASIBILITY_TOL if n_iter is None else tol)
-    s = ones(alpha.shape[0]).dot(alpha[:, 1:])  # column sums of q = α
+    # column sums of q = α (of the whole array: the strided target block is slower to sum)
+    s = ones(alpha.shape[0]).dot(alpha)
+    s[0] = 0.0  # clutter is unconstrained
     if s[s.argmax()] <= bound:  # (argmax: much cheaper than max() on small arrays)
         return alpha
     alpha = np.concatenate([np.maximum(alpha[:, :1], CLUTTER_FLOOR), alpha[:, 1:]], axis=1)
