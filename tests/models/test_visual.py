@@ -12,6 +12,7 @@ from hypothesis.extra import numpy as hnp
 from scipy.stats import multivariate_normal
 
 from avtrack.models.appearance import BhattacharyyaAppearance
+from avtrack.models.base import DiagonalObservationModel
 from avtrack.models.visual import (
     BoxObservationModel,
     BoxObservations,
@@ -144,6 +145,42 @@ def test_appearance_adds_its_log_ratio():
     with_app = BoxObservations(obs.z, obs.var, hist)
     got = model.log_likelihood(with_app, mu, gamma)[0]
     np.testing.assert_allclose(got - plain, app.log_ratio(hist, refs), rtol=1e-12, atol=1e-12)
+
+
+@pytest.mark.parametrize("marginal", [False, True])
+@pytest.mark.parametrize("with_appearance", [False, True])
+def test_responsibilities_equal_the_e_z_step_of_the_likelihoods(marginal, with_appearance):
+    """The box model's fused E-Z (log-likelihoods written into the E-Z array, computed on
+    gathered (observation, target) pairs) gives exactly e_z_step of log_likelihood_diagonal,
+    the base-class composition."""
+    rng = np.random.default_rng(6)
+    z = np.column_stack([rng.uniform(50, 150, (5, 2)), rng.uniform(20, 60, (5, 2))])
+    mu = z[[0, 2, 2, 4]] + rng.normal(scale=3.0, size=(4, 4))
+    var = rng.uniform(1.0, 30.0, (4, 4))
+    app = BhattacharyyaAppearance()
+    model = BoxObservationModel(-20.0, app if with_appearance else None)
+    hist = None
+    if with_appearance:
+        model.add_targets(4, app.normalize(rng.uniform(size=(4, 6))))
+        hist = app.normalize(rng.uniform(size=(5, 6)))
+    obs = BoxObservations(z, box_observation_variance(z), hist)
+    log_prior = np.log(rng.dirichlet(np.ones(5)))
+    for exclusive in (False, True):
+        got = model.responsibilities_diagonal(obs, mu, var, log_prior, marginal, exclusive)
+        ref = DiagonalObservationModel.responsibilities_diagonal(
+            model, obs, mu, var, log_prior, marginal, exclusive)
+        np.testing.assert_array_equal(got, ref)
+    log_tau, _ = model.log_likelihood_diagonal(obs, mu, var, marginal)
+    r = z[:, None, :] - mu
+    if marginal:  # the broadcast formulas, by hand
+        s = box_observation_variance(z)[:, None, :] + var
+        expected = -0.5 * ((r * r / s).sum(axis=2) + np.log(s).sum(axis=2) + 4 * np.log(2 * np.pi))
+    else:
+        expected = (-0.5 * ((r * r + var) / box_observation_variance(z)[:, None, :]).sum(axis=2)
+                    + obs.log_normaliser[:, None])
+    if with_appearance:
+        expected += app.log_ratio(hist, model.references)
+    np.testing.assert_allclose(log_tau, expected, rtol=1e-12, atol=1e-9)
 
 
 # --------------------------------------------------------------------------- target hooks
