@@ -190,6 +190,22 @@ def test_constant_velocity_path_equals_the_matrix_filter(seed, dt):
         assert a.gamma.shape == (6, 6)
 
 
+def test_constant_velocity_path_from_a_single_detection():
+    """One chain to start from (no ranking in the first beam step), then several."""
+    track = smooth_track(w=50.0, h=110.0)
+    frames = [track[0], np.vstack([track[1], track[1] + [4.0, -3.0, 2.0, 1.0]]),
+              np.vstack([track[2] + [60.0, 0, 0, 0], track[2]]), track[3]]
+    ref = birth_candidates(pools_from(frames), D, dyn_cov, velocity_var, LOG_U)
+    cv = birth_candidates(pools_from(frames), D, dyn_cov, velocity_var, LOG_U,
+                          dynamics_var=dyn_var)
+    assert len(cv) == len(ref) == 2
+    for a, b in zip(cv, ref, strict=True):
+        np.testing.assert_array_equal(a.indices, b.indices)
+        np.testing.assert_allclose(a.llr, b.llr, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(a.mu, b.mu, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(a.gamma, b.gamma, rtol=1e-12, atol=1e-12)
+
+
 def test_dynamics_var_is_ignored_without_a_constant_velocity_transition():
     """Any other D takes the matrix filter (here one that damps the velocity)."""
     d = constant_velocity_transition(4, 2)

@@ -158,11 +158,13 @@ def _beam(
     loglik = -0.5 * (maha + logdet + k * _LOG_2PI)  # log N(o_m; P μ, S)
     total = score[:, None] + loglik
     total[~(maha < gate)] = -np.inf  # outside the gate
-    # beam: best chains for each observation
-    order = np.argsort(-total, axis=0)[:beam]  # (beam, M)
-    ci = order.ravel()
-    mi = np.arange(ci.shape[0]) % m  # the observation (column) of each entry of ``order``
-    score = total[ci, mi]
+    if total.shape[0] == 1:  # a single chain: nothing to rank
+        ci, mi, score = np.zeros(m, dtype=np.intp), np.arange(m), total[0]
+    else:  # beam: best chains for each observation
+        order = np.argsort(-total, axis=0)[:beam]  # (beam, M)
+        ci = order.ravel()
+        mi = np.arange(ci.shape[0]) % m  # the observation (column) of each entry of ``order``
+        score = total[ci, mi]
     ok = score > -np.inf  # passed every gate
     return ci[ok], mi[ok], score[ok]
 
