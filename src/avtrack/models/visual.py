@@ -116,7 +116,11 @@ class BoxObservations:
         return -0.5 * (np.log(self.var).sum(axis=1) + BOX_DIM * _LOG_2PI)
 
     def subset(self, idx: np.ndarray) -> BoxObservations:
+        """The rows ``idx`` (an index array or a boolean mask)."""
+        idx = np.asarray(idx)
         app = None if self.appearance is None else self.appearance[idx]
+        if idx.ndim == 1:  # rows of this validated object: no checks needed
+            return _rows(self.z[idx], self.var[idx], app)
         return BoxObservations(self.z[idx], self.var[idx], app)
 
     def split(self, bounds: Sequence[int]) -> list[BoxObservations]:
@@ -126,18 +130,20 @@ class BoxObservations:
         (they are row-wise, so each frame gets the very numbers it would compute)."""
         z, var, app = self.z, self.var, self.appearance
         inv_var, terms, log_norm = self.inv_var, self.information_terms, self.log_normaliser
-        frames = []
-        for a, b in pairwise(bounds):
-            # rows of this validated batch: the fields and the constants are written to the
-            # instance dict directly (where cached_property keeps its values), without the
-            # __init__ checks, a third of the cost of a sequence's observations
-            obs = object.__new__(BoxObservations)
-            obs.__dict__.update(z=z[a:b], var=var[a:b],
-                                appearance=None if app is None else app[a:b],
-                                inv_var=inv_var[a:b], information_terms=terms[a:b],
-                                log_normaliser=log_norm[a:b])
-            frames.append(obs)
-        return frames
+        return [_rows(z[a:b], var[a:b], None if app is None else app[a:b], inv_var=inv_var[a:b],
+                      information_terms=terms[a:b], log_normaliser=log_norm[a:b])
+                for a, b in pairwise(bounds)]
+
+
+def _rows(z: np.ndarray, var: np.ndarray, appearance: np.ndarray | None,
+          **constants: np.ndarray) -> BoxObservations:
+    """:class:`BoxObservations` of rows taken from a validated one, without the ``__init__``
+    checks (a third of the cost of a frame's observations): the fields, and any per-frame
+    constants, are written to the instance dict directly (where ``cached_property`` keeps
+    its values)."""
+    obs = object.__new__(BoxObservations)
+    obs.__dict__.update(z=z, var=var, appearance=appearance, **constants)
+    return obs
 
 
 @functools.lru_cache(maxsize=1024)
