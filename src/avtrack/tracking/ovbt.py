@@ -212,17 +212,18 @@ class OVBTracker:
                             n_frames: int | None) -> list[BoxObservations]:
         """What :meth:`_observations` gives for each frame ``1..n_frames`` of ``dets``,
         computed for all rows at once (``appearance``: one row per detection, or None)."""
-        slices = dets.frame_slices(n_frames)
-        if not slices:
+        n = dets.n_frames if n_frames is None else n_frames
+        if n <= 0:
             return []
-        rows = slice(slices[0].start, slices[-1].stop)
-        first = self._observations(dets.boxes[rows], dets.scores[rows],
-                                   None if appearance is None else appearance[rows])
+        # first row of each frame 1..n + 1 (as MOTData.frame_slices, without the slices)
+        bounds = np.searchsorted(dets.frames, np.arange(1, n + 2), side="left")
+        lo, hi = int(bounds[0]), int(bounds[-1])
+        first = self._observations(dets.boxes[lo:hi], dets.scores[lo:hi],
+                                   None if appearance is None else appearance[lo:hi])
         # row index in ``first`` of each frame's start: detections below min_score are dropped
-        kept = np.zeros(rows.stop - rows.start + 1, dtype=np.int64)
-        np.cumsum(dets.scores[rows] >= self.config.min_score, out=kept[1:])
-        starts = kept[[sl.start - rows.start for sl in slices] + [rows.stop - rows.start]]
-        return first.split(starts.tolist())
+        kept = np.zeros(hi - lo + 1, dtype=np.int64)
+        np.cumsum(dets.scores[lo:hi] >= self.config.min_score, out=kept[1:])
+        return first.split(kept[bounds - lo].tolist())
 
     def step(self, boxes: np.ndarray, scores: np.ndarray | None = None,
              appearance: np.ndarray | None = None) -> FrameTracks:
