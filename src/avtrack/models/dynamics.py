@@ -7,6 +7,8 @@ For image boxes ``p = (x, y, w, h)`` (centre, size) and ``v = (ẋ, ẏ)``: ``d 
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 
@@ -59,8 +61,11 @@ def box_dynamics_variance(
     mu: np.ndarray, pos: float = 0.05, size: float = 0.05, vel: float = 0.05,
 ) -> np.ndarray:
     """Diagonal ``(N, 6)`` of :func:`box_dynamics_covariance` (the whole of it: Λ is diagonal)."""
-    wh = np.maximum(mu[:, 2:4].copy(), 1.0)  # (a contiguous copy is faster than the strided slice)
-    return np.concatenate([pos * wh, size * wh, vel * wh], axis=1) ** 2  # (std · size)²
+    out = mu.take(_SIZES, axis=1)  # (w, h, w, h, w, h)
+    np.maximum(out, 1.0, out=out)
+    out *= _stds(pos, size, vel)  # std · size
+    out *= out  # (std · size)²
+    return out
 
 
 def cap_box_covariance(mu: np.ndarray, gamma: np.ndarray, max_std: float) -> np.ndarray:
@@ -92,7 +97,24 @@ def cap_box_scale(mu: np.ndarray, variances: np.ndarray, max_std: float) -> np.n
     ``mu (N, 6)`` and the variances ``(N, 6)`` (the diagonal of Γ)."""
     if not max_std > 0:
         raise ValueError(f"max_std must be > 0, got {max_std}")
-    wh = np.maximum(mu[:, 2:4].copy(), 1.0)  # (a contiguous copy is faster than the strided slice)
-    cap = max_std * np.concatenate([wh, wh, wh], axis=1)  # c = max_std (w, h, w, h, w, h)
-    std = np.sqrt(np.maximum(variances, 1e-300))
-    return np.minimum(1.0, cap / std)  # S = min(1, c / sqrt(Γ_kk))
+    scale = mu.take(_SIZES, axis=1)  # (w, h, w, h, w, h)
+    np.maximum(scale, 1.0, out=scale)
+    scale *= max_std  # c = max_std (w, h, w, h, w, h)
+    std = np.maximum(variances, 1e-300)
+    scale /= np.sqrt(std, out=std)
+    return np.minimum(scale, 1.0, out=scale)  # S = min(1, c / sqrt(Γ_kk))
+
+
+#: Columns of the box size (w, h) of a box state, once per group of components of
+#: :func:`box_dynamics_variance` and :func:`cap_box_scale` (gathered in one ``take``: faster
+#: than slicing and concatenating on these small arrays).
+_SIZES = np.array([2, 3, 2, 3, 2, 3])
+_SIZES.flags.writeable = False
+
+
+@functools.lru_cache(maxsize=16)
+def _stds(pos: float, size: float, vel: float) -> np.ndarray:
+    """``(pos, pos, size, size, vel, vel)``, read-only."""
+    out = np.array([pos, pos, size, size, vel, vel], dtype=float)
+    out.flags.writeable = False
+    return out
