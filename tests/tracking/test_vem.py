@@ -17,6 +17,8 @@ from avtrack.tracking.vem import (
     CLUTTER_FLOOR,
     FEASIBILITY_TOL,
     PRIOR_FLOOR,
+    cv_join,
+    cv_split,
     cv_transition,
     e_s_step,
     e_z_step,
@@ -25,6 +27,7 @@ from avtrack.tracking.vem import (
     m_step_dynamics,
     m_step_priors,
     predict,
+    predict_cv,
     symmetrize,
 )
 
@@ -73,6 +76,34 @@ def test_cv_transition_recognises_constant_velocity_matrices():
     damped[4, 4] = 0.9
     assert cv_transition(damped, 4) is None
     assert cv_transition(np.ones((6, 4)), 4) is None
+
+
+@pytest.mark.parametrize("dt", [1.0, 0.5])
+@pytest.mark.parametrize("with_lam_pv", [False, True])
+@pytest.mark.parametrize("with_control", [False, True])
+def test_predict_cv_equals_the_matrix_prediction(dt, with_lam_pv, with_control):
+    """predict_cv (split constant-velocity states, Λ_pv = 0 given as None) is eq. 2.21."""
+    rng = np.random.default_rng(7)
+    n, k, n_vel = 3, 4, 2
+    d = constant_velocity_transition(k, n_vel, dt)
+    mu = rng.normal(size=(n, k + n_vel)) * 10
+    gamma = np.stack([np.diag(rng.uniform(1, 5, 6)) for _ in range(n)])
+    gamma[:, [0, 1], [4, 5]] = gamma[:, [4, 5], [0, 1]] = rng.uniform(-0.5, 0.5, (n, 2))
+    lam = np.stack([np.diag(rng.uniform(0.1, 1, 6)) for _ in range(n)])
+    if with_lam_pv:
+        lam[:, [0, 1], [4, 5]] = lam[:, [4, 5], [0, 1]] = 0.05
+    control = rng.normal(size=(n, 6)) if with_control else None
+    mu_ref, gamma_ref = predict(mu, gamma, d, lam, control)
+    lam_cv = cv_split(np.zeros((n, 6)), lam, n_vel)
+    if not with_lam_pv:
+        lam_cv = lam_cv._replace(cov=None)
+    if with_control:
+        lam_cv = lam_cv._replace(mu_p=control[:, :k], mu_v=cv_split(control, lam, n_vel).mu_v)
+    else:
+        lam_cv = lam_cv._replace(mu_p=None, mu_v=None)
+    mu_cv, gamma_cv = cv_join(predict_cv(cv_split(mu, gamma, n_vel), lam_cv, dt), n_vel)
+    np.testing.assert_allclose(mu_cv, mu_ref, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(gamma_cv, gamma_ref, rtol=1e-12, atol=1e-12)
 
 
 def test_predict_constant_velocity_by_hand():
