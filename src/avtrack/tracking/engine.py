@@ -11,6 +11,7 @@ and :meth:`remove_targets`.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -435,7 +436,7 @@ class VEMEngine:
         and loops (whose overhead is some 5% of an OVBT frame); the same updates."""
         (model,), (obs,) = self.models, observations
         post = pred  # E-Z initialisation, thesis §4.6.1
-        log_prior = np.full(pred.mu_p.shape[0] + 1, -math.log(pred.mu_p.shape[0] + 1))  # η
+        log_prior = _uniform_log_prior(pred.mu_p.shape[0] + 1)  # η = 1/(N+1)
         last, exclusive, marginal = self.n_iter - 1, self.exclusive, self.marginal_init
         update = self.update_priors
         for it in range(self.n_iter):
@@ -461,6 +462,14 @@ class VEMEngine:
         if post.states is None:  # (writable arrays: the inference keeps its own)
             post = _Posterior(post.mu.copy(), post.gamma.copy())
         return FrameInference(tuple(resps), tuple(mass), post)
+
+
+@functools.lru_cache(maxsize=64)
+def _uniform_log_prior(n: int) -> np.ndarray:
+    """``(n,)`` read-only array of ``-log n`` (never changed in place: shared)."""
+    out = np.full(n, -math.log(n))
+    out.flags.writeable = False
+    return out
 
 
 def _constant_velocity(

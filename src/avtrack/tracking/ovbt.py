@@ -172,7 +172,7 @@ class OVBTracker:
         return box_dynamics_variance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
 
     def _velocity_var(self, z: np.ndarray) -> np.ndarray:
-        return (self.config.birth_velocity_std * np.maximum(z[:, 2:4], 1.0)) ** 2
+        return (self.config.birth_velocity_std * np.maximum(z[:, 2:4].copy(), 1.0)) ** 2
 
     def _observations(self, boxes, scores, appearance) -> BoxObservations:
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
