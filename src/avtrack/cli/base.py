@@ -41,6 +41,21 @@ def add_common(parser: argparse.ArgumentParser) -> None:
     g.add_argument("-v", "--verbose", action="store_true", help="print progress details")
 
 
+def add_array_option(
+    parser: argparse.ArgumentParser, required: bool = True, note: str = ""
+) -> None:
+    """``--array ARRAY``: a built-in microphone array name or a JSON array file
+    (:func:`avtrack.audio.arrays.load_array` reads it)."""
+    from avtrack.audio.arrays import BUILTIN_ARRAYS
+
+    parser.add_argument(
+        "--array",
+        required=required,
+        metavar="ARRAY",
+        help=f"built-in array ({', '.join(BUILTIN_ARRAYS)}) or a JSON file{note}",
+    )
+
+
 def read_config_mapping(path, what: str) -> dict:
     """The mapping in a ``--config`` YAML file (``{}`` for an empty file), with clear errors.
 

@@ -20,7 +20,7 @@ import numpy as np
 
 from avtrack.audio.arrays import MicArray, load_array
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import HelpFormatter, add_array_option, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
@@ -70,12 +70,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=HelpFormatter,
     )
     p.add_argument("audio", type=Path, metavar="AUDIO.wav", help="multichannel recording")
-    p.add_argument(
-        "--array",
-        required=True,
-        metavar="ARRAY",
-        help="built-in array (nao4, nao8, nao12, nao4-hrir, av163, kemar) or a JSON file",
-    )
+    add_array_option(p)
     p.add_argument(
         "--method", choices=sorted(LOCALIZERS), default="dprtf-eg", help="default: dprtf-eg"
     )

@@ -9,7 +9,13 @@ from pathlib import Path
 
 import numpy as np
 
-from avtrack.cli.base import HelpFormatter, add_common, build_config, read_config_mapping
+from avtrack.cli.base import (
+    HelpFormatter,
+    add_array_option,
+    add_common,
+    build_config,
+    read_config_mapping,
+)
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOA_HEADER, format_doa_row
@@ -58,12 +64,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         formatter_class=HelpFormatter,
     )
     p.add_argument("audio", metavar="AUDIO.wav|-", help="WAV file, or - for standard input")
-    p.add_argument(
-        "--array",
-        required=True,
-        metavar="ARRAY",
-        help="built-in array (nao4, nao8, nao12, nao4-hrir, av163, kemar) or a JSON file",
-    )
+    add_array_option(p)
     p.add_argument(
         "--method", choices=sorted(LOCALIZERS), default="dprtf-eg", help="default: dprtf-eg"
     )

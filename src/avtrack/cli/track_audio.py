@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import HelpFormatter, add_array_option, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
@@ -71,12 +71,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="AUDIO.wav",
         help="multichannel recording (not needed with --doa)",
     )
-    p.add_argument(
-        "--array",
-        metavar="ARRAY",
-        help="built-in array (nao4, nao8, nao12, nao4-hrir, av163, kemar) or a JSON "
-        "file (required with AUDIO.wav)",
-    )
+    add_array_option(p, required=False, note=" (required with AUDIO.wav)")
     p.add_argument(
         "--tracker", choices=sorted(registered_trackers()), default="gauss", help="default: gauss"
     )
