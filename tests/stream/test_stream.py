@@ -213,3 +213,7 @@ def test_av_stream_rejects_bad_parameters():
         AVStream(mapping, sc.image_size, 4, fps=0)
     with pytest.raises(TypeError, match="AudioImageMapping"):
         AVStream(object(), sc.image_size, 4)
+    stream = AVStream(mapping, sc.image_size, 4, fps=sc.fps)
+    with pytest.raises(ValueError, match=r"boxes must have shape \(M, 4\), got \(2, 6\)"):
+        stream.push_detections(np.ones((2, 6)))
+    assert stream.push_detections([]) == []  # an empty frame is fine

@@ -154,11 +154,13 @@ class AVStream:
         appearance : ndarray (M, F), optional
             Given for every frame or for none.
         """
-        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        if self._det_frames_in < self.frames_out:  # frame already tracked without them
-            self._det_frames_in += 1
-            return self._drain()
-        self._dets.append((boxes, scores, appearance))
+        boxes = np.asarray(boxes, dtype=float)
+        if boxes.size == 0:
+            boxes = boxes.reshape(0, 4)
+        if boxes.ndim != 2 or boxes.shape[1] != 4:
+            raise ValueError(f"AVStream: boxes must have shape (M, 4), got {boxes.shape}")
+        if self._det_frames_in >= self.frames_out:  # else: already tracked without them
+            self._dets.append((boxes, scores, appearance))
         self._det_frames_in += 1
         return self._drain()
 
