@@ -266,3 +266,26 @@ def test_select_births_never_reuses_an_observation(data, threshold):
 def test_select_births_does_not_depend_on_input_order():
     born = select_births([cand([0, 0], -1.0), cand([1, 1], 5.0)], 0.0)
     assert [c.llr for c in born] == [5.0]
+
+
+def test_born_states_and_consume_pool():
+    from avtrack.models.visual import BoxObservations
+    from avtrack.tracking.birth import BirthCandidate, born_states, consume_pool
+
+    def frame(m):
+        z = np.arange(m * 4, dtype=float).reshape(m, 4) + 10.0
+        return BoxObservations(z, np.ones((m, 4)), np.eye(m, 3))
+
+    pool = [frame(3), frame(2)]
+    born = [
+        BirthCandidate(np.array([2, 0]), 5.0, np.full(6, 1.0), np.eye(6)),
+        BirthCandidate(np.array([0, 1]), 4.0, np.full(6, 2.0), 2 * np.eye(6)),
+    ]
+    mu, gamma, app = born_states(born, pool[-1].appearance)
+    assert mu.shape == (2, 6) and gamma.shape == (2, 6, 6)
+    np.testing.assert_array_equal(app, pool[-1].appearance[[0, 1]])
+    assert born_states(born, None)[2] is None
+    kept = pool[0].z[1]
+    consume_pool(pool, born)
+    assert [len(p) for p in pool] == [1, 0]
+    np.testing.assert_array_equal(pool[0].z, kept[None])

@@ -39,7 +39,12 @@ from avtrack.models.dynamics import constant_velocity_transition
 from avtrack.robot.base import OBS_DIM, STATE_DIM, FaceObservations, HeadMotion, TrackedPeople
 from avtrack.robot.egomotion import control_vector, ego_displacement_scale
 from avtrack.robot.head import RobotHead
-from avtrack.tracking.birth import birth_candidates, select_births
+from avtrack.tracking.birth import (
+    birth_candidates,
+    born_states,
+    consume_pool,
+    select_births,
+)
 from avtrack.tracking.engine import VEMEngine
 from avtrack.tracking.visibility import visibility_filter
 
@@ -580,22 +585,14 @@ class RobotTracker:
         k = len(born)
         ids = np.arange(self._next_id, self._next_id + k)
         self._next_id += k
-        mu = np.stack([b.mu for b in born])
-        gamma = np.stack([b.gamma for b in born])
-        last = self._pool[-1]
-        init = None
-        if last.appearance is not None:
-            init = np.stack([last.appearance[b.indices[-1]] for b in born])
+        mu, gamma, init = born_states(born, self._pool[-1].appearance)
         self.engine.add_targets(ids, mu, gamma, [init])
         self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
         self.invisible_run = np.concatenate([self.invisible_run, np.zeros(k, dtype=np.int64)])
         self.unseen_run = np.concatenate([self.unseen_run, np.zeros(k, dtype=np.int64)])
         self.mass_history = np.vstack([self.mass_history, np.ones((k, cfg.visibility_window))])
         self.last_control = np.vstack([self.last_control, np.zeros((k, 3))])
-        for f, pool in enumerate(self._pool):
-            used = np.zeros(len(pool), dtype=bool)
-            used[[int(b.indices[f]) for b in born]] = True
-            self._pool[f] = pool.subset(np.flatnonzero(~used))
+        consume_pool(self._pool, born)
 
 
 def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:

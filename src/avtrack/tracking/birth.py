@@ -261,3 +261,40 @@ def select_births(candidates: Sequence[BirthCandidate], threshold: float) -> lis
         used |= keys
         chosen.append(cand)
     return chosen
+
+
+def born_states(
+    born: Sequence[BirthCandidate], last_appearance: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """The new targets' posteriors and initial appearances.
+
+    Parameters
+    ----------
+    born : sequence of BirthCandidate
+        The chosen sequences (:func:`select_births`), ``k`` of them.
+    last_appearance : ndarray (M, F) or None
+        Appearance descriptors of the pool's last frame.
+
+    Returns
+    -------
+    mu : ndarray (k, d)
+    gamma : ndarray (k, d, d)
+    appearance : ndarray (k, F) or None
+        The descriptor of each sequence's last observation.
+    """
+    mu = np.stack([b.mu for b in born])
+    gamma = np.stack([b.gamma for b in born])
+    init = None
+    if last_appearance is not None:
+        init = np.stack([last_appearance[b.indices[-1]] for b in born])
+    return mu, gamma, init
+
+
+def consume_pool(pool, born: Sequence[BirthCandidate]) -> None:
+    """Remove the born sequences' observations from the pool frames (in place), so no other
+    birth uses them. ``pool`` is a mutable sequence of observation sets with ``len`` and
+    ``subset(index_array)``, oldest first, as the candidates' ``indices``."""
+    for f, frame in enumerate(pool):
+        used = np.zeros(len(frame), dtype=bool)
+        used[[int(b.indices[f]) for b in born]] = True
+        pool[f] = frame.subset((~used).nonzero()[0])

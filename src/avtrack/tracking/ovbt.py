@@ -36,7 +36,12 @@ from avtrack.models.visual import (
     ltwh_to_xywh,
     xywh_to_ltwh,
 )
-from avtrack.tracking.birth import birth_candidates, select_births
+from avtrack.tracking.birth import (
+    birth_candidates,
+    born_states,
+    consume_pool,
+    select_births,
+)
 from avtrack.tracking.engine import VEMEngine
 from avtrack.tracking.vem import ones
 from avtrack.tracking.visibility import visibility_filter
@@ -315,22 +320,13 @@ class OVBTracker:
         k = len(born)
         ids = np.arange(self._next_id, self._next_id + k)
         self._next_id += k
-        mu = np.stack([b.mu for b in born])
-        gamma = np.stack([b.gamma for b in born])
-        last = self._pool[-1]
-        init = None
-        if last.appearance is not None:
-            init = np.stack([last.appearance[b.indices[-1]] for b in born])
+        mu, gamma, init = born_states(born, self._pool[-1].appearance)
         # the box model gets the appearances; any other model of a subclass (VAVIT) none
         self.engine.add_targets(ids, mu, gamma, [init] + [None] * (len(self.engine.models) - 1))
         self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
         self.invisible_run = np.concatenate([self.invisible_run, np.zeros(k, dtype=np.int64)])
         self.mass_history = np.vstack([self.mass_history, np.ones((k, cfg.visibility_window))])
-        # the sequences' detections are no longer available to other births
-        for f, pool in enumerate(self._pool):
-            used = np.zeros(len(pool), dtype=bool)
-            used[[int(b.indices[f]) for b in born]] = True
-            self._pool[f] = pool.subset((~used).nonzero()[0])
+        consume_pool(self._pool, born)  # no longer available to other births
 
 
 def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
