@@ -3,11 +3,25 @@
 from __future__ import annotations
 
 import contextlib
+import math
 import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
+
+
+def parse_finite(text: str, name: str, path, row: int) -> float:
+    """The finite number in a text field, or an InputError naming the file, row and field."""
+    from avtrack.errors import InputError
+
+    try:
+        v = float(text)
+    except ValueError:
+        raise InputError(f"{name} is not a number: {text!r}", path, row) from None
+    if not math.isfinite(v):
+        raise InputError(f"{name} is {text!r}, expected a finite number", path, row)
+    return v
 
 
 def temp_output(path: Path, suffix: str = ".tmp") -> tuple[int, str]:

@@ -12,14 +12,13 @@ row (the header is row 1); :func:`write_doa_csv` writes atomically with 4-decima
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write
+from avtrack.io.base import atomic_write, parse_finite
 
 DOA_HEADER = "frame,time_s,id,azimuth_deg,elevation_deg,weight,active"
 _COLUMNS = DOA_HEADER.split(",")
@@ -163,15 +162,6 @@ def _parse_int(text: str, name: str, path: Path, row: int) -> int:
         raise InputError(f"{name} must be an integer, got {text!r}", path, row) from None
 
 
-def _parse_float(text: str, name: str, path: Path, row: int) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise InputError(f"{name} is not a number: {text!r}", path, row) from None
-    if not math.isfinite(v):
-        raise InputError(f"{name} is {text!r}, expected a finite number", path, row)
-    return v
-
 
 def read_doa_csv(path: str | Path) -> DOATable:
     """Read a DOA / track CSV.
@@ -215,11 +205,11 @@ def read_doa_csv(path: str | Path) -> DOATable:
                 row,
             )
         frame = _parse_int(parts[0], "frame", path, row)
-        time_s = _parse_float(parts[1], "time_s", path, row)
+        time_s = parse_finite(parts[1], "time_s", path, row)
         tid = _parse_int(parts[2], "id", path, row)
-        az = _parse_float(parts[3], "azimuth_deg", path, row)
-        el = _parse_float(parts[4], "elevation_deg", path, row)
-        weight = _parse_float(parts[5], "weight", path, row)
+        az = parse_finite(parts[3], "azimuth_deg", path, row)
+        el = parse_finite(parts[4], "elevation_deg", path, row)
+        weight = parse_finite(parts[5], "weight", path, row)
         on = parts[6].lower()
         if frame < 0:
             raise InputError(f"frame must be >= 0, got {frame}", path, row)

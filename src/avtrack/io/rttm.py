@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write
+from avtrack.io.base import atomic_write, parse_finite
 
 if TYPE_CHECKING:
     from avtrack.simulate.speech import SpeechSegment
@@ -209,15 +209,6 @@ def write_rttm(
         fh.writelines(rows)
 
 
-def _number(text: str, name: str, path: Path, row: int) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise InputError(f"{name} is not a number: {text!r}", path, row) from None
-    if not math.isfinite(v):
-        raise InputError(f"{name} is {text!r}, expected a finite number", path, row)
-    return v
-
 
 def read_rttm(path: str | Path) -> list[RTTMSegment]:
     """Read the ``SPEAKER`` records of an RTTM file, in file order.
@@ -253,8 +244,8 @@ def read_rttm(path: str | Path) -> list[RTTMSegment]:
                 path,
                 row,
             )
-        start = _number(fields[3], "start (field 4)", path, row)
-        dur = _number(fields[4], "duration (field 5)", path, row)
+        start = parse_finite(fields[3], "start (field 4)", path, row)
+        dur = parse_finite(fields[4], "duration (field 5)", path, row)
         if start < 0:
             raise InputError(f"start (field 4) must be >= 0, got {fields[3]}", path, row)
         if dur <= 0:
