@@ -37,6 +37,7 @@ from avtrack.models.visual import (
     xywh_to_ltwh,
 )
 from avtrack.tracking.birth import (
+    BirthCandidate,
     birth_candidates,
     born_states,
     consume_pool,
@@ -59,8 +60,8 @@ class OVBTConfig:
     obs_std_pos: float = 0.1  #: Φ: centre std / box size
     obs_std_size: float = 0.1  #: Φ: size std / box size
     dyn_std_pos: float = 0.05  #: Λ: centre std per frame / box size
-    dyn_std_size: float = 0.05  #: Λ: size std per frame / box size
-    dyn_std_vel: float = 0.03  #: Λ: velocity std per frame / box size
+    dyn_std_size: float = 0.03  #: Λ: size std per frame / box size
+    dyn_std_vel: float = 0.02  #: Λ: velocity std per frame / box size
     update_priors: bool = True  #: M-step of the assignment priors, eq. 3.29
     marginal_init: bool = True  #: first E-Z step with the predictive marginal, eq. 2.8
     exclusive: bool = True  #: a target explains at most one detection per frame
@@ -70,7 +71,9 @@ class OVBTConfig:
     birth_threshold: float = 0.0  #: birth when the log-likelihood ratio exceeds this
     birth_velocity_std: float = 0.05  #: prior velocity std at birth / box size, per frame
     birth_gate: float = 18.47  #: χ²₄(0.999) gate on each innovation of a birth sequence
-    startup_birth: bool = True  #: before frame B + 1, births from all frames so far (≥ 2)
+    #: at frame 1, every detection starts a target (no history to score eq. 3.30 against);
+    #: then, before frame B + 1, births from all the frames so far
+    startup_birth: bool = True
     birth_max_overlap: float = 0.5  #: reject a birth whose box lies this much inside a target's
     visibility_stay: float = 0.9  #: π_v of the visibility HMM
     visibility_lambda: float = 1.0  #: λ of eq. 3.32
@@ -285,11 +288,13 @@ class OVBTracker:
             unassigned = np.arange(len(obs))
         # --- birth (eq. 3.30) ----------------------------------------------------------------
         self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
-        # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far
-        # (at least two), so that the people present from the first frame are not held back.
+        # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far,
+        # so that the people present from the first frame are not held back.
         if len(self._pool) == cfg.birth_frames + 1 or (
                 cfg.startup_birth and len(self._pool) == self.frame >= 2):
             self._birth()
+        elif cfg.startup_birth and self.frame == 1:
+            self._first_frame_birth()
         visible = self.p_visible > 0.5
         return eng.ids[visible], eng.mu[visible, :BOX_DIM], self.p_visible[visible]
 
@@ -314,9 +319,27 @@ class OVBTracker:
             tgt_boxes = xywh_to_ltwh(self.engine.mu[:, :BOX_DIM])
             inside = _intersection_over_first(cand_boxes, tgt_boxes).max(axis=1)
             cands = [c for c, o in zip(cands, inside, strict=True) if o <= cfg.birth_max_overlap]
-        born = select_births(cands, cfg.birth_threshold)
+        self._add_born(select_births(cands, cfg.birth_threshold))
+
+    def _first_frame_birth(self) -> None:
+        """Frame 1 has no history for eq. 3.30 to score, so each detection starts a target at
+        the detected box with the birth velocity prior (as SORT outputs its unconfirmed tracks
+        over the first frames; the detector's non-maximum suppression has removed duplicates).
+        A false detection makes a target that the visibility HMM soon puts to sleep."""
+        obs = self._pool[0]
+        vel_var = self._velocity_var(obs.z)  # (M, d - 4)
+        mu = np.hstack([obs.z, np.zeros_like(vel_var)])
+        gamma = np.zeros((len(obs), mu.shape[1], mu.shape[1]))
+        diag = np.arange(mu.shape[1])
+        gamma[:, diag, diag] = np.hstack([obs.var, vel_var])
+        self._add_born([BirthCandidate(np.array([m]), 0.0, mu[m], gamma[m])
+                        for m in range(len(obs))])
+
+    def _add_born(self, born: list[BirthCandidate]) -> None:
+        """Add the chosen sequences as new targets and take them out of the birth pool."""
         if not born:
             return
+        cfg = self.config
         k = len(born)
         ids = np.arange(self._next_id, self._next_id + k)
         self._next_id += k
