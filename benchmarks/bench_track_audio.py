@@ -64,6 +64,7 @@ from avtrack.io.doa import DOATable, read_doa_csv  # noqa: E402
 from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer  # noqa: E402
 from avtrack.metrics.doa_tracking import TrackingScores, evaluate_tracks  # noqa: E402
 from avtrack.tracking.doa_base import (  # noqa: E402
+    PEAK_FLOOR,
     DOASequence,
     circular_peaks,
     make_tracker,
@@ -74,7 +75,6 @@ from avtrack.tracking.gmphd_peer import GMPHDPeer  # noqa: E402
 
 STEP = 4  # localizer frames per tracker frame (32 ms)
 HOP_S = 0.008
-PEAK_FLOOR = 0.05  # the peaks given to vM-VEM and GM-PHD
 METHODS = ("srp-phat", "prp-rem", "dprtf-rem", "dprtf-eg")
 LABELS = {
     "srp-phat": "SRP-PHAT",

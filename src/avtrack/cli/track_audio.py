@@ -23,13 +23,14 @@ from avtrack.cli.base import HelpFormatter, add_array_option, add_common, load_c
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
-from avtrack.tracking.doa_base import DOASequence, make_tracker, registered_trackers
+from avtrack.tracking.doa_base import (
+    DEFAULT_OBSERVATIONS,
+    PEAK_FLOOR,
+    DOASequence,
+    make_tracker,
+    registered_trackers,
+)
 
-#: Observations each tracker uses by default: every candidate direction with its weight
-#: (thesis §5.3.3, the Gaussian tracker) or the heat-map peaks (thesis §5.6.5).
-DEFAULT_OBSERVATIONS = {"gauss": "all", "vonmises": "peaks"}
-#: Weakest heat-map peak kept as an observation in ``peaks`` mode.
-PEAK_FLOOR = 0.05
 HOP_S = 0.008
 
 EXAMPLES = """\
