@@ -148,7 +148,11 @@ def speed(methods, seconds: float, repeats: int) -> list[dict]:
     return rows
 
 
-def accuracy(methods, scenes: list[Path], skip_s: float) -> list[dict]:
+def accuracy(methods, scenes: list[Path], skip_s: float, configs: dict | None = None
+             ) -> list[dict]:
+    """Best ROC point of each method pooled over ``scenes``; ``configs`` maps a method to its
+    localizer configuration (default: the method's defaults)."""
+    configs = configs or {}
     rows = []
     for m in methods:
         tables, truths, elapsed, duration = [], [], 0.0, 0.0
@@ -158,7 +162,7 @@ def accuracy(methods, scenes: list[Path], skip_s: float) -> list[dict]:
             array = load_array(d / "array.json")
             x = read_array_audio(d / "audio.wav", array, quiet=True)
             truth = read_doa_csv(d / "gt" / "doa.csv")
-            loc = make_localizer(m, array)
+            loc = make_localizer(m, array, config=configs.get(m))
             t0 = time.perf_counter()
             heat = loc.run(x)
             elapsed += time.perf_counter() - t0
@@ -233,6 +237,45 @@ def markdown(speed_rows, acc_rows, scenes, args) -> str:
     return "\n".join(lines) + "\n"
 
 
+def overrides(items: list[str]) -> dict:
+    """``["dprtf-eg:variance=0.05", ...]`` -> ``{method: config}`` built from each method's
+    default configuration with the fields replaced (nested ``dprtf.FIELD`` too)."""
+    import dataclasses
+
+    from avtrack.localize.cgmm_eg import EGConfig
+    from avtrack.localize.rem import PRPREMConfig, REMConfig
+
+    defaults = {"dprtf-eg": EGConfig, "dprtf-rem": REMConfig, "prp-rem": PRPREMConfig}
+    changes: dict[str, dict[str, dict]] = {}
+    for item in items:
+        method, sep, rest = item.partition(":")
+        field, eq, value = rest.partition("=")
+        if not (sep and eq) or method not in defaults:
+            raise ValueError(f"--set {item!r}: expected METHOD:FIELD=VALUE with METHOD one of "
+                             f"{sorted(defaults)}")
+        outer, dot, inner = field.partition(".")
+        key = ("dprtf", inner) if dot else ("", outer)
+        changes.setdefault(method, {}).setdefault(key[0], {})[key[1]] = _number(value)
+    configs = {}
+    for method, parts in changes.items():
+        cfg = defaults[method]()
+        try:
+            if "dprtf" in parts:
+                cfg = dataclasses.replace(cfg, dprtf=dataclasses.replace(cfg.dprtf,
+                                                                         **parts["dprtf"]))
+            configs[method] = dataclasses.replace(cfg, **parts.get("", {}))
+        except TypeError as exc:
+            raise ValueError(f"--set {method}: {exc}") from None
+    return configs
+
+
+def _number(text: str) -> int | float:
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--methods", nargs="+", default=list(METHODS), choices=sorted(LOCALIZERS))
@@ -247,15 +290,27 @@ def main(argv: list[str] | None = None) -> int:
         metavar="S",
         help="seconds not scored at the start of each scene (default 1)",
     )
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="METHOD:FIELD=VALUE",
+        help="override one field of a method's configuration for the scores, e.g. "
+        "dprtf-eg:variance=0.05 or dprtf-eg:dprtf.ctf_length=4 (repeatable)",
+    )
     p.add_argument("--markdown", type=Path, metavar="FILE", help="write the tables here")
     args = p.parse_args(argv)
+    try:
+        configs = overrides(args.set)
+    except ValueError as exc:
+        p.error(str(exc))
     speed_rows, acc_rows = [], []
     if not args.no_speed:
         print("real-time factor (one BLAS thread):", flush=True)
         speed_rows = speed(args.methods, args.seconds, args.repeats)
     if args.scene:
         print(f"scores on {len(args.scene)} scene(s):", flush=True)
-        acc_rows = accuracy(args.methods, args.scene, args.skip)
+        acc_rows = accuracy(args.methods, args.scene, args.skip, configs)
     if args.markdown:
         with atomic_write(args.markdown) as fh:
             fh.write(markdown(speed_rows, acc_rows, args.scene, args))
