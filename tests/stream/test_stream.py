@@ -14,7 +14,12 @@ from avtrack.simulate.library import named_scenario
 from avtrack.simulate.scenario import validate_scenario
 from avtrack.simulate.scene import simulate_scene
 from avtrack.stream import AVStream, DOAStream
-from avtrack.tracking.doa_base import DEFAULT_OBSERVATIONS, PEAK_FLOOR, DOASequence, make_tracker
+from avtrack.tracking.doa_base import (
+    DEFAULT_OBSERVATIONS,
+    PEAK_FLOOR,
+    heatmap_sequence,
+    make_tracker,
+)
 from tests.av.scenes import walkout
 
 
@@ -39,10 +44,9 @@ def blocks_of(x: np.ndarray, sizes) -> list[np.ndarray]:
 def batch_doa_tracks(array, x, tracker: str, step: int = 4):
     loc = make_localizer("dprtf-eg", array)
     heat = loc.run(x)
-    peaks = DEFAULT_OBSERVATIONS[tracker] == "peaks"
-    seq = DOASequence.from_weights(
-        heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, step=step,
-        peaks_only=peaks, floor=PEAK_FLOOR if peaks else 0.0,
+    seq = heatmap_sequence(
+        heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, step,
+        DEFAULT_OBSERVATIONS[tracker], PEAK_FLOOR,
     )
     trk = make_tracker(tracker, None, frame_period_s=step * loc.stft_config.frame_period_s)
     trk.reset()
@@ -87,7 +91,7 @@ def test_doa_stream_latency_and_frame_period():
     ("kwargs", "message"),
     [
         ({"step": 0}, "step must be a positive integer"),
-        ({"observations": "lines"}, "observations must be 'all' or 'peaks'"),
+        ({"observations": "lines"}, "observations must be one of"),
         ({"floor": -1.0}, "floor must be a finite number"),
         ({"method": "music"}, "method must be one of"),
         ({"tracker": "kalman"}, "kalman"),

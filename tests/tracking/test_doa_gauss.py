@@ -11,10 +11,12 @@ from avtrack.io.doa import DOATable, wrap_azimuth
 from avtrack.metrics.doa_tracking import evaluate_tracks
 from avtrack.models.doa import WeightedDirectionModel, WeightedDirections
 from avtrack.tracking.doa_base import (
+    DEFAULT_OBSERVATIONS,
     FRAME_PERIOD_S,
     DOASequence,
     SpeakerActivity,
     circular_peaks,
+    heatmap_sequence,
     make_tracker,
     registered_trackers,
     synthetic_heatmaps,
@@ -29,6 +31,7 @@ from avtrack.tracking.doa_gauss import (
 from avtrack.tracking.engine import VEMEngine
 
 GRID = -180.0 + 5.0 * np.arange(1, 73)  # thesis §5.5.1: 72 azimuths every 5°
+OBS = DEFAULT_OBSERVATIONS["gauss"]  # how the tracker observes a heat map by default
 
 
 def scene(az: np.ndarray, on: np.ndarray, seed: int = 0, **kw):
@@ -46,7 +49,7 @@ def scene(az: np.ndarray, on: np.ndarray, seed: int = 0, **kw):
         np.ones(az.size),
         on.ravel(),
     )
-    return DOASequence.from_weights(w, GRID, time_s=t), truth
+    return heatmap_sequence(w, GRID, time_s=t, step=1, observations=OBS), truth
 
 
 def moving(start: float, speed_deg_s: float, n: int = 250) -> np.ndarray:
@@ -269,3 +272,41 @@ def test_stonesoup_gmphd_peer_tracks_a_source():
     assert s.mae < 4.0 and s.md_rate < 0.2
     with pytest.raises(ValueError, match=r"GMPHDConfig\.prob_detection"):
         GMPHDConfig(prob_detection=0.0)
+
+
+def test_heatmap_sequence_above_median_removes_the_floor():
+    # two tracker frames of 4 candidates, step 2: block means, then minus each frame's median
+    w = np.array(
+        [[0.1, 0.2, 0.3, 0.4], [0.1, 0.2, 0.3, 0.4], [0.4, 0.3, 0.2, 0.1], [0.2, 0.1, 0.4, 0.3]]
+    )
+    az = np.array([-90.0, 0.0, 90.0, 180.0])
+    seq = heatmap_sequence(w, az, step=2, observations="above-median")
+    np.testing.assert_allclose(seq.weight[0], [0.0, 0.0, 0.05, 0.15], atol=1e-12)
+    np.testing.assert_allclose(seq.weight[1], [0.05, 0.0, 0.05, 0.0], atol=1e-12)
+    assert all(a.size == 4 for a in seq.azimuth_deg)  # every candidate stays an observation
+    raw = heatmap_sequence(w, az, step=2, observations="all")
+    np.testing.assert_allclose(raw.weight[0], [0.1, 0.2, 0.3, 0.4])
+    peaks = heatmap_sequence(w, az, step=2, observations="peaks", floor=0.35)
+    np.testing.assert_allclose(peaks.azimuth_deg[0], [180.0])
+    with pytest.raises(ValueError, match="observations must be one of"):
+        heatmap_sequence(w, az, observations="median")
+    with pytest.raises(ValueError, match="baseline must be"):
+        DOASequence.from_weights(w, az, baseline="mean")
+
+
+def test_tracks_moving_apart_in_velocity_are_not_merged():
+    # two tracks at one direction, one moving +20°/s and one -20°/s, observed at both
+    tracker = GaussDOATracker()
+    eng = tracker.engine
+    v = np.deg2rad(20.0)
+    ids = tracker._new_ids(2)
+    mu = np.array([[1.0, 0.0, v], [1.0, 0.0, -v]])
+    eng.add_targets(ids, mu, np.tile(np.diag([1e-4, 1e-4, 1e-4]), (2, 1, 1)))
+    tracker.activity.add(2, 1.0)
+    tracker.shadowed = np.zeros(2, dtype=np.int64)
+    for k in range(1, 30):  # ~1 s, longer than merge_s
+        a = np.array([20.0, -20.0]) * k * FRAME_PERIOD_S
+        out = tracker.step(a, np.array([0.5, 0.5]))
+    assert set(out.ids) == set(ids)
+    end = 20 * 29 * FRAME_PERIOD_S
+    np.testing.assert_allclose(np.sort(out.azimuth_deg), [-end, end], atol=3.0)

@@ -25,8 +25,9 @@ from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
 from avtrack.tracking.doa_base import (
     DEFAULT_OBSERVATIONS,
-    PEAK_FLOOR,
+    OBSERVATION_MODES,
     DOASequence,
+    heatmap_sequence,
     make_tracker,
     registered_trackers,
 )
@@ -106,9 +107,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--observations",
-        choices=("all", "peaks"),
-        help="from heat maps: every candidate direction with its weight, or only "
-        "the peaks (default: all for gauss, peaks for vonmises)",
+        choices=OBSERVATION_MODES,
+        help="from heat maps: every candidate direction with its weight (all), the same with "
+        "each frame's median weight removed (above-median), or only the peaks (default: "
+        "above-median for gauss, peaks for vonmises)",
     )
     p.add_argument(
         "--step",
@@ -149,7 +151,7 @@ def load_tracker_config(name: str, path: Path | None):
 
 
 def observations_from_audio(
-    args: argparse.Namespace, peaks: bool
+    args: argparse.Namespace, observations: str
 ) -> tuple[DOASequence, float, float]:
     """Localize ``args.audio``; returns the tracker's observations, the signal duration and the
     localization time (seconds)."""
@@ -171,27 +173,10 @@ def observations_from_audio(
     t0 = time.perf_counter()
     heat = localize_signal(localizer, x, None, args.quiet)
     elapsed = time.perf_counter() - t0
-    seq = heatmap_observations(heat, grid, args.step, peaks)
-    return seq, x.shape[1] / localizer.fs, elapsed
-
-
-def heatmap_observations(
-    heat, grid, step: int = 4, peaks: bool = False, floor: float = PEAK_FLOOR
-) -> DOASequence:
-    """Thin adapter from :class:`avtrack.localize.HeatMaps` over a
-    :class:`~avtrack.localize.DirectionGrid` to tracker observations: one tracker frame per
-    ``step`` localizer frames, with every candidate and its mean weight over the block, or
-    only the peaks of that mean at or above ``floor``."""
-    return DOASequence.from_weights(
-        heat.weights,
-        grid.azimuth_deg,
-        heat.frames,
-        heat.time_s,
-        step=step,
-        mode="mean",
-        peaks_only=peaks,
-        floor=floor if peaks else 0.0,
+    seq = heatmap_sequence(
+        heat.weights, grid.azimuth_deg, heat.frames, heat.time_s, args.step, observations
     )
+    return seq, x.shape[1] / localizer.fs, elapsed
 
 
 def plot_tracks(
@@ -261,7 +246,7 @@ def run(args: argparse.Namespace) -> int:
     if args.doa is not None and args.audio is not None:
         raise InputError("give either AUDIO.wav or --doa DOA.csv, not both")
     truth = read_doa_csv(args.truth) if args.truth is not None else None
-    peaks = (args.observations or DEFAULT_OBSERVATIONS.get(args.tracker, "all")) == "peaks"
+    observations = args.observations or DEFAULT_OBSERVATIONS.get(args.tracker, "all")
     hop = HOP_S
     if args.doa is not None:
         table = read_doa_csv(args.doa)
@@ -275,7 +260,7 @@ def run(args: argparse.Namespace) -> int:
         t_loc = 0.0
         source = args.doa.name
     else:
-        seq, duration, t_loc = observations_from_audio(args, peaks)
+        seq, duration, t_loc = observations_from_audio(args, observations)
         source = args.audio.name
     tracker = make_tracker(args.tracker, config, frame_period_s=args.step * hop)
     t0 = time.perf_counter()

@@ -8,7 +8,7 @@ as observations, and one tracker step (Gaussian §5.4 or von Mises §5.6).
 State is bounded: the STFT keeps less than one window of samples, the localizer and the
 tracker keep fixed-size recursive statistics, and fewer than ``step`` heat maps wait for their
 tracker frame. Fed a signal in blocks of any sizes, :class:`DOAStream` gives exactly the tracks
-of ``tracker.run(DOASequence.from_weights(localizer.run(signal).weights, ...))``.
+of ``tracker.run(heatmap_sequence(localizer.run(signal).weights, ...))``.
 """
 
 from __future__ import annotations
@@ -22,9 +22,10 @@ from avtrack.audio.arrays import MicArray
 from avtrack.localize import DirectionGrid, make_localizer
 from avtrack.tracking.doa_base import (
     DEFAULT_OBSERVATIONS,
+    OBSERVATION_MODES,
     PEAK_FLOOR,
-    DOASequence,
     TrackFrame,
+    heatmap_sequence,
     make_tracker,
 )
 
@@ -62,8 +63,9 @@ class DOAStream:
         DOA tracker (``"gauss"`` or ``"vonmises"``; default ``"vonmises"``).
     step : int
         Localizer frames per tracker frame (default 4: 32 ms).
-    observations : {"all", "peaks"}, optional
-        Every candidate direction or only the heat map's peaks (default: the tracker's own,
+    observations : {"all", "above-median", "peaks"}, optional
+        Every candidate direction, the same above each frame's median weight, or only the heat
+        map's peaks (default: the tracker's own,
         :data:`~avtrack.tracking.doa_base.DEFAULT_OBSERVATIONS`).
     grid : DirectionGrid, optional
         Candidate directions (default: 72 azimuths every 5 degrees).
@@ -97,9 +99,10 @@ class DOAStream:
         if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
             raise ValueError(f"DOAStream: step must be a positive integer, got {step!r}")
         observations = observations or DEFAULT_OBSERVATIONS.get(tracker, "all")
-        if observations not in ("all", "peaks"):
+        if observations not in OBSERVATION_MODES:
             raise ValueError(
-                f"DOAStream: observations must be 'all' or 'peaks', got {observations!r}"
+                f"DOAStream: observations must be one of {OBSERVATION_MODES}, got "
+                f"{observations!r}"
             )
         if not (isinstance(floor, int | float) and np.isfinite(floor) and floor >= 0):
             raise ValueError(f"DOAStream: floor must be a finite number >= 0, got {floor!r}")
@@ -111,8 +114,8 @@ class DOAStream:
                 f"{self.grid.n_elevations} elevations"
             )
         self.step = int(step)
-        self.peaks = observations == "peaks"
-        self.floor = float(floor) if self.peaks else 0.0
+        self.observations = observations
+        self.floor = float(floor)
         hop = self.localizer.stft_config.frame_period_s
         self.tracker = make_tracker(tracker, tracker_config, frame_period_s=self.step * hop)
         self._azimuths = np.array(self.grid.azimuth_deg, dtype=float)
@@ -170,15 +173,14 @@ class DOAStream:
         self._held_times = times[n_done:].copy()
         if n_done == 0:
             return []
-        seq = DOASequence.from_weights(
+        seq = heatmap_sequence(
             w[:n_done],
             self._azimuths,
             frames[:n_done],
             times[:n_done],
-            step=self.step,
-            mode="mean",
-            peaks_only=self.peaks,
-            floor=self.floor,
+            self.step,
+            self.observations,
+            self.floor,
         )
         rows = zip(seq.frames, seq.time_s, seq.azimuth_deg, seq.weight, strict=True)
         return [DOAStreamFrame(int(f), float(t), self.tracker.step(a, w)) for f, t, a, w in rows]

@@ -66,10 +66,18 @@ TRACKERS: dict[str, type[DOATracker]] = {}
 #: Tracker update period of thesis §5.5.2: one update every 32 ms (4 STFT hops of 8 ms).
 FRAME_PERIOD_S = 0.032
 
-#: What each tracker observes by default: every candidate direction with its weight
-#: (``"all"``, thesis §5.4) or only the peaks of the heat map (``"peaks"``, the peak lists of
-#: §5.6.5).
-DEFAULT_OBSERVATIONS = {"gauss": "all", "vonmises": "peaks"}
+#: How a tracker can observe a heat map (:func:`heatmap_sequence`): every candidate direction
+#: with its weight (``"all"``, thesis §5.4 as written), every candidate with the frame's median
+#: weight subtracted and clipped at 0 (``"above-median"``), or only the peaks of the heat map
+#: (``"peaks"``, the peak lists of §5.6.5).
+OBSERVATION_MODES = ("all", "above-median", "peaks")
+
+#: What each tracker observes by default. The Gaussian tracker takes every candidate but
+#: without the frame's median weight: the EG weights keep a near-uniform floor (the entropy
+#: regularisation of eq. 5.19), and with every weight acting as a precision (eq. 5.22) that
+#: floor pins a silent track where it is and spreads its activity mass (eq. 5.43) over ±40°;
+#: see BENCHMARKS.md (issue 5, fifth session) for the measured effect.
+DEFAULT_OBSERVATIONS = {"gauss": "above-median", "vonmises": "peaks"}
 
 #: Peaks of a block-mean heat map below this weight are not observations.
 PEAK_FLOOR = 0.05
@@ -188,6 +196,7 @@ class DOASequence:
         peaks_only: bool = False,
         floor: float = 0.0,
         frame_period_s: float = 0.008,
+        baseline: str = "none",
     ) -> DOASequence:
         """Observations from heat maps over fixed candidate directions.
 
@@ -212,6 +221,9 @@ class DOASequence:
             Drop observations with a weight below ``floor``.
         frame_period_s : float
             Localizer frame period, for the default times.
+        baseline : {"none", "median"}
+            ``"median"``: subtract each tracker frame's median weight from its weights and clip
+            at 0 (before ``floor`` and ``peaks_only``), removing the uniform floor of a heat map.
         """
         w = np.asarray(weights, dtype=float)
         az = np.asarray(azimuth_deg, dtype=float).reshape(-1)
@@ -228,6 +240,8 @@ class DOASequence:
             raise ValueError(f"step must be a positive integer, got {step!r}")
         if mode not in ("mean", "last"):
             raise ValueError(f"mode must be 'mean' or 'last', got {mode!r}")
+        if baseline not in ("none", "median"):
+            raise ValueError(f"baseline must be 'none' or 'median', got {baseline!r}")
         t_ = w.shape[0]
         frames = np.arange(t_) if frames is None else np.asarray(frames, dtype=np.int64)
         time_s = frames * frame_period_s if time_s is None else np.asarray(time_s, dtype=float)
@@ -241,6 +255,8 @@ class DOASequence:
             w = w[: n_blocks * step].reshape(n_blocks, step, -1).mean(axis=1)
         else:
             w = w[last]
+        if baseline == "median" and w.size:
+            w = np.maximum(w - np.median(w, axis=1, keepdims=True), 0.0)
         keep = w >= floor if floor > 0 else np.ones(w.shape, dtype=bool)
         if peaks_only:
             keep &= circular_peaks(w)
@@ -299,6 +315,39 @@ class DOASequence:
         azs = tuple(az[starts[k] : starts[k + 1]] for k in range(n_blocks))
         ws = tuple(w[starts[k] : starts[k + 1]] for k in range(n_blocks))
         return cls(frames, np.maximum(offset + frames * frame_period_s, 0.0), azs, ws)
+
+
+def heatmap_sequence(
+    weights: np.ndarray,
+    azimuth_deg: np.ndarray,
+    frames: np.ndarray | None = None,
+    time_s: np.ndarray | None = None,
+    step: int = 4,
+    observations: str = "all",
+    floor: float = PEAK_FLOOR,
+) -> DOASequence:
+    """Tracker observations from heat maps ``(T, D)`` in one of :data:`OBSERVATION_MODES`.
+
+    One tracker frame per ``step`` localizer frames with the block's mean weights (thesis
+    §5.5.2: 4, i.e. 32 ms); ``"peaks"`` keeps the peaks at or above ``floor`` (the other modes
+    ignore it). Use ``DEFAULT_OBSERVATIONS[tracker]`` for a tracker's default.
+    """
+    if observations not in OBSERVATION_MODES:
+        raise ValueError(
+            f"observations must be one of {OBSERVATION_MODES}, got {observations!r}"
+        )
+    peaks = observations == "peaks"
+    return DOASequence.from_weights(
+        weights,
+        azimuth_deg,
+        frames,
+        time_s,
+        step=step,
+        mode="mean",
+        peaks_only=peaks,
+        floor=floor if peaks else 0.0,
+        baseline="median" if observations == "above-median" else "none",
+    )
 
 
 def circular_peaks(weights: np.ndarray) -> np.ndarray:

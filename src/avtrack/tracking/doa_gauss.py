@@ -30,7 +30,8 @@ the direction being renormalised after every E-S step (§5.4.1). Then
 - tracks survive speech pauses: a silent track keeps being predicted by its dynamics (its
   covariance is capped at ``max_direction_std`` / ``max_velocity_std``) and is deleted only
   after ``death_s`` seconds of silence, or when it has shadowed an older track (within
-  ``merge_deg``) for ``merge_s`` seconds.
+  ``merge_deg`` and moving alike: angular velocities within ``merge_velocity_deg_s``) for
+  ``merge_s`` seconds; two talkers crossing each other move apart in velocity and are kept.
 
 Deliberate choices where the thesis is silent: the clutter density ``log_clutter_density`` of a
 direction vector (the "volume of the observation space" of eq. 5.22 is not given), the death and
@@ -77,10 +78,10 @@ class GaussConfig:
 
     n_iter: int = 3  #: VEM iterations per frame (thesis: 5)
     obs_var: float = 0.0012  #: σ² of Σ = σ² I₂ (thesis: 0.03, for its weight scale)
-    log_clutter_density: float = -1.8  #: log U(vol B) of a direction vector, eq. 5.22
+    log_clutter_density: float = 0.0  #: log U(vol B) of a direction vector, eq. 5.22
     dyn_std_dir: float = 0.04  #: Λ: std of each unit-vector component per frame
     dyn_std_vel: float = 0.1  #: Λ: std of the angular velocity per frame, rad/s
-    velocity_decay: float = 0.8  #: D[2, 2] (thesis eq. 5.27: 1)
+    velocity_decay: float = 0.9  #: D[2, 2] (thesis eq. 5.27: 1)
     dynamics_mstep: bool = False  #: re-estimate Λ by eq. 2.27 each iteration
     marginal_init: bool = True  #: first E-Z step with the predictive marginal (eq. 2.8)
     max_direction_std: float = 0.5  #: cap on the std of the direction components
@@ -88,12 +89,13 @@ class GaussConfig:
     birth_frames: int = 3  #: L of §5.4.2 (sequences over frames t-L..t)
     birth_threshold: float = 6.0  #: ε₁ of eq. 5.41, as a log-likelihood ratio to clutter
     birth_velocity_std: float = 0.5  #: prior std of the angular velocity at birth, rad/s
-    birth_min_separation_deg: float = 20.0  #: no birth this close to an existing track
+    birth_min_separation_deg: float = 10.0  #: no birth this close to an existing track
     activity_frames: int = 3  #: L' of eq. 5.43
-    activity_threshold: float = 0.8  #: δ of eq. 5.43 (thesis: 0.15, for its weight scale)
+    activity_threshold: float = 0.045  #: δ of eq. 5.43 (thesis: 0.15, for its weight scale)
     death_s: float = 10.0  #: delete a track silent this long, seconds
     merge_deg: float = 8.0  #: a track this close to an older one ...
-    merge_s: float = 0.6  #: ... for this long is deleted (a duplicate), seconds
+    merge_s: float = 0.2  #: ... for this long is deleted (a duplicate), seconds
+    merge_velocity_deg_s: float = 10.0  #: ... if their angular velocities differ less, °/s
 
     def __post_init__(self) -> None:
         check_config_fields(
@@ -107,6 +109,7 @@ class GaussConfig:
                 "birth_velocity_std",
                 "death_s",
                 "merge_s",
+                "merge_velocity_deg_s",
             ),
             finite=(
                 "log_clutter_density",
@@ -270,6 +273,7 @@ class GaussDOATracker(DOATracker):
         self._death_frames = max(1, round(cfg.death_s / self.frame_period_s))
         self._merge_frames = max(1, round(cfg.merge_s / self.frame_period_s))
         self._cos_merge = np.cos(np.deg2rad(cfg.merge_deg))
+        self._merge_vel = np.deg2rad(cfg.merge_velocity_deg_s)
         self._cos_birth = np.cos(np.deg2rad(cfg.birth_min_separation_deg))
         self._dir_cache: tuple[np.ndarray, np.ndarray] | None = None
 
@@ -307,7 +311,9 @@ class GaussDOATracker(DOATracker):
             keep = self.activity.silent_frames < self._death_frames
             u = eng.mu[:, :2]
             cos = u @ u.T
-            older = np.tril(cos > self._cos_merge, k=-1)  # [i, j]: j < i is close to i
+            v = eng.mu[:, 2]
+            alike = np.abs(v[:, None] - v[None, :]) < self._merge_vel
+            older = np.tril((cos > self._cos_merge) & alike, k=-1)  # [i, j]: j < i is close to i
             self.shadowed = np.where(older.any(axis=1), self.shadowed + 1, 0)
             keep &= self.shadowed < self._merge_frames
             if not keep.all():
