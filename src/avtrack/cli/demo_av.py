@@ -63,7 +63,7 @@ def run_av(args: argparse.Namespace) -> int:
     from avtrack.metrics.doa import evaluate_doa
     from avtrack.metrics.mot import evaluate_mot
     from avtrack.simulate.scene import simulate_scene, write_scene
-    from avtrack.tracking.doa_base import PEAK_FLOOR, DOASequence, make_tracker
+    from avtrack.tracking.doa_base import DEFAULT_OBSERVATIONS, heatmap_sequence, make_tracker
     from avtrack.tracking.vavit import load_scene, track_scene
     from avtrack.viz import report
     from avtrack.viz.video import render_scene_video
@@ -96,8 +96,8 @@ def run_av(args: argparse.Namespace) -> int:
     loc = make_localizer("dprtf-eg", array)
     heat = localize_signal(loc, scene.audio, None, args.quiet)
     doa = peak_table(heat, loc.grid, loc.default_threshold)
-    seq = DOASequence.from_weights(heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s,
-                                   step=4, peaks_only=True, floor=PEAK_FLOOR)  # fmt: skip
+    seq = heatmap_sequence(heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, 4,
+                           DEFAULT_OBSERVATIONS["vonmises"])  # fmt: skip
     doa_tracks = make_tracker("vonmises", frame_period_s=4 * loc.stft_config.frame_period_s).run(
         seq
     )

@@ -193,7 +193,7 @@ class VonMisesConfig:
     birth_threshold: float = 1.7  #: on log τ_j + (L + 1) log 2π (eq. 5.61 vs clutter)
     birth_min_separation_deg: float = 20.0  #: no birth this close to an existing track
     activity_frames: int = 3  #: D + 1 of eq. 5.62 (D = 2)
-    activity_threshold: float = 0.15  #: δ of eq. 5.62 (thesis: 0.025, for its confidences)
+    activity_threshold: float = 0.05  #: δ of eq. 5.62 (thesis: 0.025, for its confidences)
     death_s: float = 10.0  #: delete a track silent this long, seconds
     merge_deg: float = 8.0  #: a track this close to an older one ...
     merge_s: float = 1.5  #: ... for this long is deleted (a duplicate), seconds
