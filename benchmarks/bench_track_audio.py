@@ -26,9 +26,10 @@ RF = (localization time + tracking time) / signal length, measured in this proce
 on one thread.
 
 **Speed.** (a) The trackers alone on 2000 frames of synthetic heat maps with 72 candidate
-directions and 3 moving talkers (best of 3 after a warm-up pass, CPU time of this process): frames per second, the
-target being ≥ 2000 frames/s; Stone Soup's GM-PHD on the peaks of the same maps as the peer
-(the × GM-PHD column: speed ratio, less sensitive to the load of a shared machine).
+directions and 3 moving talkers (best of 3 after a warm-up pass, CPU time of this process):
+frames per second, the target being ≥ 2000 frames/s; Stone Soup's GM-PHD on the peaks of the
+same maps as the peer (the × GM-PHD column: speed ratio, less sensitive to the load of a
+shared machine).
 (b) The full pipeline on a simulated 4-microphone scene: DPRTF-EG localization at 8 ms plus one
 tracker update every 32 ms; target RF ≤ 0.3.
 

@@ -310,3 +310,24 @@ def test_tracks_moving_apart_in_velocity_are_not_merged():
     assert set(out.ids) == set(ids)
     end = 20 * 29 * FRAME_PERIOD_S
     np.testing.assert_allclose(np.sort(out.azimuth_deg), [-end, end], atol=3.0)
+
+
+def test_zero_weight_candidates_change_nothing():
+    # eq. 5.22: a weight-0 candidate has precision 0 (pure clutter), so leaving the zeros of
+    # "above-median" out of each frame must give the same tracks and activity statistics
+    az = np.stack([moving(-60, 20), moving(80, -15)], axis=1)
+    seq, _ = scene(az, np.ones(az.shape, bool), seed=3)
+    assert any((w == 0).any() for w in seq.weight)
+    keep = [w > 0 for w in seq.weight]
+    sparse = DOASequence(
+        seq.frames,
+        seq.time_s,
+        tuple(a[k] for a, k in zip(seq.azimuth_deg, keep, strict=True)),
+        tuple(w[k] for w, k in zip(seq.weight, keep, strict=True)),
+    )
+    full, thin = GaussDOATracker().run(seq), GaussDOATracker().run(sparse)
+    assert len(full) > 0
+    np.testing.assert_array_equal(full.ids, thin.ids)
+    np.testing.assert_array_equal(full.active, thin.active)
+    np.testing.assert_allclose(full.azimuth_deg, thin.azimuth_deg, atol=1e-9)
+    np.testing.assert_allclose(full.weight, thin.weight, atol=1e-12)
