@@ -83,6 +83,9 @@ def test_interrupted_stream_keeps_complete_rows(wav, tmp_path):
     proc = subprocess.Popen(
         [*CLI, "stream", "-", "--array", "nao4", "-o", str(out)],
         stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+        # Ctrl-C as in a terminal, also when the suite itself runs as a background job (a
+        # non-interactive shell starts those with SIGINT ignored, and children inherit that)
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )  # fmt: skip
     proc.stdin.write(live(wav.read_bytes()))  # the recording; the stream does not end
     proc.stdin.flush()
