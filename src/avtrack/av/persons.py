@@ -51,8 +51,11 @@ Target management (the parts of thesis §3.1.4 and §4.6.2 this space changes).
 * *Death*: a person neither seen nor heard for ``death_s`` seconds ends (``tentative_death_s``
   for a person seen or heard for less than ``established_s`` in all, e.g. a false alarm).
   While unseen, a person's velocity decays (``velocity_decay``), as in VAVIT.
-* *Merging*: two persons closer than ``merge_deg`` for ``merge_frames`` frames, not both seen,
-  are one person: the older identity takes the state of the one that is seen.
+* *Merging*: two persons closer than ``merge_deg`` for ``merge_frames`` frames, neither seen,
+  are one person: the older identity takes the better-localised state.
+* *Lost in view*: a person whose direction is in the camera's view but who has not been seen
+  for ``lost_frames`` frames is not where the state says; the azimuth variance grows until
+  audio or a visual track finds the person again.
 
 Speaking: the probability that at least one audio peak of the frame belongs to the person,
 :math:`1 - \prod_k (1 - \alpha_{tkn})` (the direction-space counterpart of eq. 4.34);
@@ -105,6 +108,11 @@ class PersonConfig:
     reid_min_unseen : int
     velocity_decay : float
         Each frame a person is not seen, the velocity mean is multiplied by this.
+    lost_frames : int
+        A person whose direction is in the camera's view but who has not been seen for this
+        many frames is *lost*: each further frame adds ``lost_noise_deg`` squared to the
+        azimuth variance, up to ``lost_max_std_deg`` squared.
+    lost_noise_deg, lost_max_std_deg : float
     death_s, tentative_death_s, established_s : float
         See the module docstring.
     merge_deg : float
@@ -132,6 +140,9 @@ class PersonConfig:
     reid_min_cosine: float = 0.8
     reid_min_unseen: int = 10
     velocity_decay: float = 0.9
+    lost_frames: int = 5
+    lost_noise_deg: float = 3.0
+    lost_max_std_deg: float = 25.0
     death_s: float = 15.0
     tentative_death_s: float = 1.0
     established_s: float = 1.0
@@ -158,12 +169,14 @@ class PersonConfig:
             "death_s",
             "tentative_death_s",
             "merge_deg",
+            "lost_noise_deg",
+            "lost_max_std_deg",
         )
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ValueError(f"PersonConfig.{name} must be > 0, got {getattr(self, name)!r}")
         for name in ("n_iter", "birth_window", "birth_min_frames", "merge_frames",
-                     "reid_min_unseen"):
+                     "reid_min_unseen", "lost_frames"):
             v = getattr(self, name)
             if not float(v).is_integer() or v < 1:
                 raise ValueError(f"PersonConfig.{name} must be an integer >= 1, got {v!r}")
@@ -390,6 +403,14 @@ class PersonTracker:
         if self.n_persons:
             self.mu = self.mu @ d.T
             self.gamma = d @ self.gamma @ d.T + self.process_cov
+            # in view but not seen for a while: the camera says the person is not where the
+            # state says, so the azimuth spreads until audio or vision finds them again
+            lost = self._in_view_now() & (self.unseen_run >= c.lost_frames)
+            if np.any(lost):
+                g = self.gamma[lost, 0, 0]  # add at most up to the cap (stays PSD)
+                self.gamma[lost, 0, 0] = g + np.clip(
+                    c.lost_max_std_deg**2 - g, 0.0, c.lost_noise_deg**2
+                )
 
         # --- visual tracks -> persons -------------------------------------------------------
         v_az, v_el, v_dist = self.geometry.boxes_to_directions(boxes)
@@ -461,6 +482,14 @@ class PersonTracker:
             np.clip(speaking, 0.0, 1.0), seen, vids, pov,
         )
 
+    def _in_view_now(self) -> np.ndarray:
+        """``(N,)`` whether each person's current mean direction is in the field of view."""
+        px, inside = self.geometry.directions_to_pixels(
+            self.mu[:, 0], self.mu[:, 1], self.distance
+        )
+        with np.errstate(invalid="ignore"):
+            return inside & (px[:, 0] >= self.fov[0]) & (px[:, 0] <= self.fov[1])
+
     def _link_new(self, new, vids, person_of_visual, v_az, v_el, v_dist, app) -> np.ndarray:
         """Person ids of the new visual tracks ``new``: linked to a person not seen at this
         frame, or new persons."""
@@ -471,10 +500,9 @@ class PersonTracker:
         out = np.full(new.size, -1, dtype=np.int64)
         if cand.size:
             dz = np.abs(wrap_deg(v_az[new][:, None] - self.mu[cand, 0][None, :]))
-            spread = np.sqrt(self.gamma[cand, 0, 0])[None, :]
-            gate = c.link_gate_deg + 2.0 * spread
-            cost = (dz / gate) ** 2
-            ok = dz <= gate
+            var = c.sigma_visual_deg**2 + self.gamma[cand, 0, 0][None, :]
+            ok = dz <= c.link_gate_deg + 2.0 * np.sqrt(var)
+            cost = dz**2 / var + np.log(var)  # -2 log N(a_v; μ^a, σ_v² + Γ^aa) + const
             if app is not None and self.appearance is not None:
                 cos = _cosine(app[new], self.appearance[cand])
                 known = np.isfinite(cos)
@@ -483,7 +511,7 @@ class PersonTracker:
                     self.unseen_run[cand][None, :] >= c.reid_min_unseen
                 )
                 ok |= reid
-                cost = cost - np.where(known, cos, 0.0)
+                cost = np.where(reid, -100.0 + cost * 1e-3, cost)
             cost = np.where(ok, cost, 1e6)
             r, k = linear_sum_assignment(cost)
             for i, j in zip(r, k, strict=True):
@@ -525,11 +553,11 @@ class PersonTracker:
             self.mu = np.einsum("nij,nj->ni", self.gamma, prior_vec + vis_vec)
             return np.zeros(n), audio
         mu, gamma = pred_mu, pred_gamma
-        log_norm = -0.5 * np.log(2 * np.pi * var_a)
         for _ in range(c.n_iter):
-            # E-Z: α_kn ∝ π_n N(a_k; μ_n^a, σ_a²) exp(-Γ_n^aa / 2σ_a²); α_k0 ∝ π_0 / |A|
+            # E-Z: α_kn ∝ π_n N(a_k; μ_n^a, σ_a² + Γ_n^aa); α_k0 ∝ π_0 / |A|
             diff = wrap_deg(audio[:, None] - mu[None, :, 0])
-            ll = log_norm - 0.5 * diff**2 / var_a - 0.5 * gamma[None, :, 0, 0] / var_a
+            var = var_a + gamma[None, :, 0, 0]
+            ll = -0.5 * np.log(2 * np.pi * var) - 0.5 * diff**2 / var
             logits = np.concatenate([np.full((k_t, 1), self.log_clutter), ll], axis=1)
             logits -= logits.max(axis=1, keepdims=True)
             alpha = np.exp(logits)
@@ -560,20 +588,20 @@ class PersonTracker:
         runs: dict[tuple[int, int], int] = {}
         keep = np.ones(n, dtype=bool)
         for i, j in zip(*np.nonzero(np.triu(dz < c.merge_deg, 1)), strict=True):
-            if seen[i] and seen[j]:
+            if seen[i] or seen[j]:  # a seen person is where the camera says
                 continue
             key = (int(self.ids[i]), int(self.ids[j]))
             runs[key] = self.close_run.get(key, 0) + 1
             if runs[key] >= c.merge_frames and keep[i] and keep[j]:
                 old, young = (i, j) if self.ids[i] < self.ids[j] else (j, i)
-                src = young if seen[young] else old  # the state of the seen one
+                # the better-localised state
+                src = young if self.gamma[young, 0, 0] < self.gamma[old, 0, 0] else old
                 self.mu[old], self.gamma[old] = self.mu[src], self.gamma[src]
                 self.distance[old] = self.distance[src]
                 self.quiet_run[old] = min(self.quiet_run[old], self.quiet_run[young])
                 self.unseen_run[old] = min(self.unseen_run[old], self.unseen_run[young])
                 self.evidence[old] += self.evidence[young]
                 speaking[old] = max(speaking[old], speaking[young])
-                seen[old] = seen[old] or seen[young]
                 if self.appearance is not None and not np.all(
                     np.isfinite(self.appearance[old])
                 ):
