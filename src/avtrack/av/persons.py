@@ -50,7 +50,8 @@ Target management (the parts of thesis §3.1.4 and §4.6.2 this space changes).
   heard, keeps one identity. Otherwise the visual track starts a new person.
 * *Death*: a person neither seen nor heard for ``death_s`` seconds ends (``tentative_death_s``
   for a person seen or heard for less than ``established_s`` in all, e.g. a false alarm).
-  While unseen, a person's velocity decays (``velocity_decay``), as in VAVIT.
+  A person never seen who stays in the camera's view for ``unseen_in_view_death_s`` ends too.
+  While unseen, a person's velocity decays (``velocity_decay``, in mean and covariance).
 * *Merging*: two persons closer than ``merge_deg`` for ``merge_frames`` frames, neither seen,
   are one person: the older identity takes the better-localised state.
 * *Lost in view*: a person whose direction is in the camera's view but who has not been seen
@@ -107,7 +108,8 @@ class PersonConfig:
         ``reid_min_unseen`` frames, wherever the prediction is.
     reid_min_unseen : int
     velocity_decay : float
-        Each frame a person is not seen, the velocity mean is multiplied by this.
+        :math:`\\rho`: for a person not seen at the previous frame the velocity follows
+        :math:`v_t = \\rho v_{t-1} + w` (mean and covariance).
     lost_frames : int
         A person whose direction is in the camera's view but who has not been seen for this
         many frames is *lost*: each further frame adds ``lost_noise_deg`` squared to the
@@ -115,6 +117,9 @@ class PersonConfig:
     lost_noise_deg, lost_max_std_deg : float
     death_s, tentative_death_s, established_s : float
         See the module docstring.
+    unseen_in_view_death_s : float
+        A person never seen whose direction has been in the camera's view for this long is
+        not there (the camera would see them): it ends.
     merge_deg : float
     merge_frames : int
     speaking_threshold : float
@@ -126,8 +131,8 @@ class PersonConfig:
 
     sigma_visual_deg: float = 1.5
     sigma_audio_deg: float = 5.0
-    position_noise_deg: float = 0.5
-    velocity_noise_deg: float = 0.3
+    position_noise_deg: float = 0.3
+    velocity_noise_deg: float = 0.1
     init_std_deg: float = 5.0
     clutter_weight: float = 0.5
     n_iter: int = 2
@@ -144,6 +149,7 @@ class PersonConfig:
     lost_noise_deg: float = 3.0
     lost_max_std_deg: float = 25.0
     death_s: float = 15.0
+    unseen_in_view_death_s: float = 3.0
     tentative_death_s: float = 1.0
     established_s: float = 1.0
     merge_deg: float = 6.0
@@ -168,6 +174,7 @@ class PersonConfig:
             "link_gate_deg",
             "death_s",
             "tentative_death_s",
+            "unseen_in_view_death_s",
             "merge_deg",
             "lost_noise_deg",
             "lost_max_std_deg",
@@ -316,6 +323,8 @@ class PersonTracker:
         self.quiet_run = np.zeros(0, dtype=np.int64)  # frames neither seen nor heard
         self.unseen_run = np.zeros(0, dtype=np.int64)
         self.evidence = np.zeros(0, dtype=np.int64)  # frames seen or heard, in all
+        self.ever_seen = np.zeros(0, dtype=bool)
+        self.in_view_run = np.zeros(0, dtype=np.int64)  # consecutive frames in view
         self.close_run: dict[tuple[int, int], int] = {}
         self.link: dict[int, int] = {}  # visual track id -> person id
         self.pool: list[np.ndarray] = []  # unexplained audio azimuths of recent frames
@@ -324,7 +333,10 @@ class PersonTracker:
     def n_persons(self) -> int:
         return int(self.ids.shape[0])
 
-    def _add(self, az: float, el: float, dist: float, el_std: float, app: np.ndarray | None):
+    def _add(
+        self, az: float, el: float, dist: float, el_std: float, app: np.ndarray | None,
+        seen: bool = False,
+    ) -> int:
         c = self.config
         pid = self.next_id
         self.next_id += 1
@@ -336,6 +348,8 @@ class PersonTracker:
         self.quiet_run = np.r_[self.quiet_run, 0]
         self.unseen_run = np.r_[self.unseen_run, 0]
         self.evidence = np.r_[self.evidence, 1]
+        self.ever_seen = np.r_[self.ever_seen, app is not None or seen]
+        self.in_view_run = np.r_[self.in_view_run, 0]
         if app is not None:
             row = np.asarray(app, dtype=float)[None]
             if self.appearance is None:
@@ -353,6 +367,7 @@ class PersonTracker:
         self.distance = self.distance[keep]
         self.quiet_run, self.unseen_run = self.quiet_run[keep], self.unseen_run[keep]
         self.evidence = self.evidence[keep]
+        self.ever_seen, self.in_view_run = self.ever_seen[keep], self.in_view_run[keep]
         if self.appearance is not None:
             self.appearance = self.appearance[keep]
         if gone:
@@ -401,8 +416,13 @@ class PersonTracker:
         # --- prediction (eq. 2.21): mu <- D mu, Gamma <- D Gamma D^T + Q -------------------
         d = self.transition
         if self.n_persons:
-            self.mu = self.mu @ d.T
-            self.gamma = d @ self.gamma @ d.T + self.process_cov
+            # persons not seen at the last frame: velocity as AR(1), v <- ρ v + w (mean and
+            # covariance), so that a track carried by audio alone does not wander off
+            dn = np.broadcast_to(d, (self.n_persons, STATE_DIM, STATE_DIM)).copy()
+            unseen = self.unseen_run > 0
+            dn[unseen, 2, 2] = dn[unseen, 3, 3] = c.velocity_decay
+            self.mu = np.einsum("nij,nj->ni", dn, self.mu)
+            self.gamma = dn @ self.gamma @ np.transpose(dn, (0, 2, 1)) + self.process_cov
             # in view but not seen for a while: the camera says the person is not where the
             # state says, so the azimuth spreads until audio or vision finds them again
             lost = self._in_view_now() & (self.unseen_run >= c.lost_frames)
@@ -450,12 +470,14 @@ class PersonTracker:
         self.quiet_run = np.where(seen | heard, 0, self.quiet_run + 1)
         self.unseen_run = np.where(seen, 0, self.unseen_run + 1)
         self.evidence = self.evidence + (seen | heard)
-        if self.n_persons and not np.all(seen):
-            self.mu[~seen, 2:] *= c.velocity_decay
         limit = np.where(
             self.evidence >= c.established_s * self.fps, c.death_s, c.tentative_death_s
         ) * self.fps
-        keep = self.quiet_run < limit
+        self.ever_seen |= seen
+        self.in_view_run = np.where(self._in_view_now(), self.in_view_run + 1, 0)
+        keep = (self.quiet_run < limit) & (
+            self.ever_seen | (self.in_view_run < c.unseen_in_view_death_s * self.fps)
+        )
         if not np.all(keep):
             speaking, seen = speaking[keep], seen[keep]
             self._keep(keep)
@@ -521,7 +543,7 @@ class PersonTracker:
             m = new[i]
             out[i] = self._add(
                 float(v_az[m]), float(v_el[m]), float(v_dist[m]), c.init_std_deg,
-                None if app is None else app[m],
+                None if app is None else app[m], seen=True,
             )
         for i, m in enumerate(new):
             self.link[int(vids[m])] = int(out[i])

@@ -198,6 +198,7 @@ def track_persons(
     azimuth_span_deg: float = 360.0,
     diarization_gap: float = 0.4,
     diarization_min: float = 0.3,
+    min_speaker_s: float = 1.0,
 ) -> PersonsResult:
     """Track persons through a recording (see the module docstring).
 
@@ -220,6 +221,9 @@ def track_persons(
         Span of the localizer's candidate azimuths.
     diarization_gap, diarization_min : float
         Smoothing of the speaker turns (:func:`~avtrack.av.diarization.speaking_segments`).
+    min_speaker_s : float
+        Persons with less speech than this in all are not reported as speakers (a short-lived
+        duplicate or a burst of reverberation rather than a talker).
     """
     if peaks is not None and len(peaks) < n_frames:
         raise ValueError(f"audio peaks cover {len(peaks)} frames, the recording has {n_frames}")
@@ -260,6 +264,10 @@ def track_persons(
             persons.frames, persons.ids, persons.speaking >= tracker.config.speaking_threshold,
             fps, max_gap=diarization_gap, min_duration=diarization_min,
         )
+        total: dict[str, float] = {}
+        for seg in speech:
+            total[seg.speaker] = total.get(seg.speaker, 0.0) + seg.duration
+        speech = [seg for seg in speech if total[seg.speaker] >= min_speaker_s]
     timing = {"duration": n_frames / fps, "visual": t1 - t0, "persons": t2 - t1}
     w = geometry.image_size[0]
     return PersonsResult(tracks, persons, speech, n_frames, fps,

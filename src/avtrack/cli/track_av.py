@@ -1,4 +1,10 @@
-"""``avtrack track-av``: audio-visual tracking and diarization of a scene directory (VAVIT)."""
+"""``avtrack track-av``: audio-visual tracking and diarization of a scene directory.
+
+Two models: ``direction`` (default), persons in the array's direction space
+(:mod:`avtrack.av.persons`), who stay tracked out of the camera's view and are born from audio
+too; ``image``, the thesis's image-plane model (VAVIT, :mod:`avtrack.tracking.vavit`) with its
+learned GLLiM audio-to-image mapping.
+"""
 
 from __future__ import annotations
 
@@ -17,15 +23,23 @@ from avtrack.io.rttm import write_rttm
 
 EXAMPLES = """\
 examples:
-  # simulate a meeting, then track and diarize it (the audio-to-image mapping is trained
-  # first on a simulated loudspeaker calibration of the scene's room, and saved in OUT_DIR)
-  avtrack simulate meeting -o scenes/meeting-1 --seed 1
-  avtrack track-av scenes/meeting-1 -o out/meeting-1
+  # simulate two people walking out of the camera's view and back, then track and diarize
+  # them: persons live in directions from the array, audio carries them while unseen
+  avtrack simulate walkout -o scenes/walkout-1 --seed 1 --duration 40
+  avtrack track-av scenes/walkout-1 -o out/walkout-1
+  avtrack eval der scenes/walkout-1/gt/speech.rttm out/walkout-1/speech.rttm
 
-  # reuse the mapping, partial field of view (the camera sees the central 40 % of the image),
+  # partial field of view: the camera sees the central 40 % of the image; talkers outside
+  # it are tracked and diarized from audio alone
+  avtrack simulate meeting -o scenes/meeting-1 --seed 1
+  avtrack track-av scenes/meeting-1 -o out/pfov --fov-fraction 0.4
+
+  # the thesis's image-plane model (VAVIT): the audio-to-image mapping is trained first on a
+  # simulated loudspeaker calibration of the scene's room and saved in OUT_DIR; reuse it,
   # covariance figure
-  avtrack track-av scenes/meeting-1 -o out/pfov --mapping out/meeting-1/mapping.npz \\
-      --fov-fraction 0.4 --plot
+  avtrack track-av scenes/meeting-1 -o out/image --model image
+  avtrack track-av scenes/meeting-1 -o out/image2 --model image \\
+      --mapping out/image/mapping.npz --plot
 
   # the visual-only tracker (OVBT) on the same detections
   avtrack track-av scenes/meeting-1 -o out/visual --no-audio
@@ -33,25 +47,35 @@ examples:
   # then score them
   avtrack eval mot scenes/meeting-1/gt/gt.txt out/meeting-1/tracks.txt
 
-Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes, confidence = visibility
-probability), OUT_DIR/speech.rttm (who speaks when, speakers P<track id>; not with
---no-audio), OUT_DIR/mapping.npz (when trained here), OUT_DIR/covariances.png (--plot).
+Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes of persons seen in the
+image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked person every
+frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y empty outside the
+image), OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --no-audio),
+OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
+image --plot).
 
-The --config YAML holds VAVITConfig fields, the visual ones under "visual:", e.g.:
+The --config YAML holds PersonConfig fields with --model direction (the visual tracker's under
+"visual:"), e.g.:
+  sigma_audio_deg: 5.0
+  death_s: 15
+  visual: {birth_frames: 3, death_frames: 20}
+and VAVITConfig fields with --model image, e.g.:
   sigma_scale: 4.0
   diarization_threshold: 0.4
-  visual: {birth_frames: 3, death_frames: 20}
 """
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "track-av",
-        help="audio-visual tracking and diarization of a scene directory (VAVIT)",
+        help="audio-visual tracking and diarization of a scene directory",
         description=(
-            "Variational audio-visual tracking of several speakers (thesis ch. 4): head "
-            "detections and\nDP-RTF audio features mapped to the image by a learned GLLiM, "
-            "plus speaker diarization\n(eq. 4.34). SCENE_DIR is a scene directory as written "
+            "Variational audio-visual tracking and diarization of several speakers. By default "
+            "persons\nlive in directions from the microphone array (the camera's view a window "
+            "inside them):\nhead detections enter through the camera geometry, DP-RTF + EG "
+            "audio peaks directly, so a\nperson out of view stays tracked while heard and a "
+            "talker never seen gets a track.\n--model image: the thesis's image-plane model "
+            "(ch. 4) with a learned GLLiM mapping.\nSCENE_DIR is a scene directory as written "
             "by 'avtrack simulate'."
         ),
         epilog=EXAMPLES,
@@ -67,21 +91,29 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="output directory (created; files written atomically)",
     )
     p.add_argument(
+        "--model",
+        choices=("direction", "image"),
+        default="direction",
+        help="state space: directions from the array (default) or the image plane (thesis "
+        "ch. 4, VAVIT)",
+    )
+    p.add_argument(
         "--mapping",
         type=Path,
         metavar="MAP.npz",
-        help="trained audio-to-image mapping (default: train one on a simulated "
-        "calibration of the scene's room and save it as OUT_DIR/mapping.npz)",
+        help="--model image: trained audio-to-image mapping (default: train one on a "
+        "simulated calibration of the scene's room and save it as OUT_DIR/mapping.npz)",
     )
     p.add_argument(
         "--calibration-positions",
         type=int,
         default=120,
         metavar="N",
-        help="loudspeaker positions of that calibration (default 120)",
+        help="--model image: loudspeaker positions of that calibration (default 120)",
     )
     p.add_argument(
-        "--no-audio", action="store_true", help="visual-only tracking (OVBT); no diarization"
+        "--no-audio", action="store_true",
+        help="visual-only tracking (OVBT, thesis §3.1); no diarization"
     )
     p.add_argument(
         "--fov-fraction",
@@ -95,16 +127,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--threshold",
         type=float,
         metavar="GAMMA",
-        help="diarization threshold of eq. 4.34 (overrides --config)",
+        help="speaking threshold: of eq. 4.34 with --model image, of the speaking "
+        "probability with --model direction (overrides --config)",
     )
     p.add_argument(
-        "--config", type=Path, metavar="FILE.yaml", help="tracker parameters (VAVITConfig fields)"
+        "--config", type=Path, metavar="FILE.yaml",
+        help="tracker parameters (PersonConfig or VAVITConfig fields, see below)"
     )
     p.add_argument(
         "--plot",
         action="store_true",
-        help="write OUT_DIR/covariances.png: visual, audio and dynamics covariances "
-        "of the tracked persons in four frames (seed 003, Fig. 1)",
+        help="--model image: write OUT_DIR/covariances.png, the visual, audio and dynamics "
+        "covariances of the tracked persons in four frames (Ban et al., Fig. 1)",
     )
     add_common(p)
     p.set_defaults(func=run)
@@ -142,13 +176,101 @@ def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = Fa
     return mapping
 
 
+def load_person_config(path: Path | None, threshold: float | None):
+    """PersonConfig and the visual tracker's OVBTConfig from ``--config`` (the visual fields
+    under ``visual:``), with ``--threshold`` on top."""
+    from avtrack.av.persons import PersonConfig
+    from avtrack.cli.base import read_config_mapping
+    from avtrack.tracking.ovbt import OVBTConfig
+
+    values = dict(read_config_mapping(path, "PersonConfig fields")) if path is not None else {}
+    visual = values.pop("visual", None) or {}
+    if threshold is not None:
+        values["speaking_threshold"] = threshold
+    try:
+        cfg = PersonConfig.from_dict(values)
+        vcfg = OVBTConfig.from_dict({"appearance": "cosine", **visual})
+    except (TypeError, ValueError) as exc:
+        raise InputError(str(exc), path) from None
+    return cfg, vcfg
+
+
 def run(args: argparse.Namespace) -> int:
+    if not 0 < args.fov_fraction <= 1:
+        raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
+    if args.model == "direction" and not args.no_audio:
+        return run_direction(args)
+    return run_image(args)
+
+
+def run_direction(args: argparse.Namespace) -> int:
+    """--model direction: persons in the array's direction space."""
+    from avtrack.av.pipeline import track_scene_persons
+    from avtrack.tracking.vavit import load_scene
+
+    if args.plot:
+        raise InputError("--plot draws the image-plane model's covariances; use --model image")
+    config, vcfg = load_person_config(args.config, args.threshold)
+    scene = load_scene(args.scene)
+    out = args.output
+    if out.exists() and not out.is_dir():
+        raise InputError("output exists and is not a directory", out)
+    t0 = time.perf_counter()
+    try:
+        with progress.activity(f"tracking {scene.n_frames} frames", args.quiet):
+            res = track_scene_persons(
+                scene, fov_fraction=args.fov_fraction, config=config, visual_config=vcfg
+            )
+    except InputError:
+        raise
+    except ValueError as exc:
+        raise InputError(str(exc), args.scene) from None
+    elapsed = time.perf_counter() - t0
+    out.mkdir(parents=True, exist_ok=True)
+    write_mot(out / "tracks.txt", res.tracks)
+    _write_text(out / "persons.csv", res.persons.to_csv())
+    write_rttm(out / "speech.rttm", res.speech)
+    if not args.quiet:
+        n_persons = len(np.unique(res.persons.ids))
+        speakers = len({s.speaker for s in res.speech})
+        print(
+            f"tracked {res.n_frames} frames ({res.timing['duration']:.1f} s): {n_persons} "
+            f"persons, {len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} "
+            f"speakers -> {out} ({elapsed:.1f} s, real-time factor "
+            f"{elapsed / max(res.timing['duration'], 1e-9):.2f})"
+        )
+    return 0
+
+
+def _write_text(path: Path, text: str) -> None:
+    from avtrack.io.base import atomic_write
+
+    with atomic_write(path) as fh:
+        fh.write(text)
+
+
+def image_persons(res, scene):
+    """``persons.csv`` rows of an image-plane result: each reported box's direction."""
+    from avtrack.av.pipeline import PersonsTable, scene_geometry
+
+    tr = res.tracks
+    if scene.scenario is None or len(tr) == 0:
+        az = el = np.zeros(len(tr))
+    else:
+        az, el, _ = scene_geometry(scene).boxes_to_directions(tr.boxes)
+    centre = tr.boxes[:, :2] + 0.5 * tr.boxes[:, 2:]
+    lo, hi = res.fov
+    in_view = (centre[:, 0] >= lo) & (centre[:, 0] <= hi)
+    return PersonsTable(tr.frames, tr.ids, az, el, centre, in_view,
+                        res.speaking.astype(float), res.fps)
+
+
+def run_image(args: argparse.Namespace) -> int:
+    """--model image (VAVIT) and --no-audio (OVBT)."""
     from avtrack.av.gllim import load_mapping, save_mapping
     from avtrack.tracking.vavit import load_scene, track_scene
 
     config = load_vavit_config(args.config, args.threshold)
-    if not 0 < args.fov_fraction <= 1:
-        raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
     if args.calibration_positions < 4:
         raise InputError(f"--calibration-positions must be >= 4, got {args.calibration_positions}")
     scene = load_scene(args.scene)
@@ -184,6 +306,7 @@ def run(args: argparse.Namespace) -> int:
     elapsed = time.perf_counter() - t0
     out.mkdir(parents=True, exist_ok=True)
     write_mot(out / "tracks.txt", res.tracks)
+    _write_text(out / "persons.csv", image_persons(res, scene).to_csv())
     if not args.no_audio:
         write_rttm(out / "speech.rttm", res.speech)
     if args.plot:
