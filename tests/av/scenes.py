@@ -87,3 +87,37 @@ def walkout() -> tuple[Path, AudioImageMapping, Path]:
     mapping = train_mapping(calib, 4, max_iter=30, rng=0)
     path = save_mapping(_root() / "walkout-mapping.npz", mapping)
     return scene_dir, mapping, path
+
+
+def out_of_image_scenario(seed: int = 5, duration: float = 16.0) -> dict:
+    """Person 1 talks in front of a 60-degree camera, walks out of the whole image (70 degrees
+    off its axis), talks there, comes back; person 2 stands at -75 degrees, never seen, and
+    talks too."""
+    home, away = _place(5.0, 2.0, 1.6), _place(70.0, 2.0, 1.6)
+    hidden = _place(-75.0, 2.0, 1.6)
+    return {
+        "name": "test-out-of-image",
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": [5.0, 4.0, 2.7], "t60": 0.25},
+        "array": {"name": "nao4", "position": ARRAY, "yaw_deg": 90.0},
+        "camera": {"hfov_deg": 60.0, "width": 640, "height": 480},
+        "people": [
+            {"id": 1, "motion": {"type": "waypoints", "waypoints": [
+                [0.0, *home], [3.0, *home], [5.0, *away], [11.0, *away], [13.0, *home],
+                [duration, *home]]}},
+            {"id": 2, "motion": {"type": "seated", "position": hidden, "sway": 0.0}},
+        ],
+        "speech": {"mode": "turn-taking", "utterances": "synthetic", "mean_turn": 2.5,
+                   "mean_pause": 0.3},
+        "noise": {"diffuse_snr_db": 25.0, "fan_snr_db": None},
+        "detector": {"miss_rate": 0.05, "false_alarm_rate": 0.0},
+    }
+
+
+@functools.cache
+def out_of_image() -> Path:
+    """Scene directory of :func:`out_of_image_scenario`."""
+    return write_scene(
+        simulate_scene(validate_scenario(out_of_image_scenario())), _root() / "out-of-image"
+    )

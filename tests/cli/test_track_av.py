@@ -10,7 +10,7 @@ import pytest
 import avtrack.cli.main as cli_main
 from avtrack.io.mot import read_mot
 from avtrack.io.rttm import read_rttm
-from tests.av.scenes import walkout
+from tests.av.scenes import out_of_image, walkout
 
 
 @pytest.fixture
@@ -23,7 +23,8 @@ def main(monkeypatch):
 def test_track_av_writes_tracks_rttm_and_figure(main, tmp_path, capsys):
     scene_dir, _, mapping_path = walkout()
     out = tmp_path / "out"
-    args = ["track-av", str(scene_dir), "-o", str(out), "--mapping", str(mapping_path)]
+    args = ["track-av", str(scene_dir), "-o", str(out), "--model", "image", "--mapping",
+            str(mapping_path)]
     assert main([*args, "--fov-fraction", "0.4", "--plot", "--threshold", "0.3"]) == 0
     tracks = read_mot(out / "tracks.txt", kind="result")
     assert np.unique(tracks.ids).tolist() == [1]
@@ -62,12 +63,18 @@ def test_track_av_bad_input(main, tmp_path, capsys):
     out = str(tmp_path / "o")
     assert main(["track-av", str(scene_dir), "-o", out, "--fov-fraction", "1.5"]) == 2
     assert "--fov-fraction" in capsys.readouterr().err
-    assert main(["track-av", str(scene_dir), "-o", out, "--mapping", str(tmp_path / "m.npz")]) == 2
+    assert main(["track-av", str(scene_dir), "-o", out, "--model", "image", "--mapping",
+                 str(tmp_path / "m.npz")]) == 2
     assert "mapping not found" in capsys.readouterr().err
+    assert main(["track-av", str(scene_dir), "-o", out, "--mapping", str(mapping_path)]) == 2
+    assert "--mapping" in capsys.readouterr().err  # the direction model has no mapping
     cfg = tmp_path / "cfg.yaml"
     cfg.write_text("sigma: 3\n")
-    assert main(["track-av", str(scene_dir), "-o", out, "--config", str(cfg)]) == 2
+    assert main(["track-av", str(scene_dir), "-o", out, "--model", "image", "--config",
+                 str(cfg)]) == 2
     assert "cfg.yaml: sigma: unknown field (allowed: " in capsys.readouterr().err
+    assert main(["track-av", str(scene_dir), "-o", out, "--config", str(cfg)]) == 2
+    assert "cfg.yaml" in (err := capsys.readouterr().err) and "'sigma'" in err
     # a scene whose audio has another number of channels than the mapping's array
     other = tmp_path / "stereo"
     shutil.copytree(scene_dir, other)
@@ -75,7 +82,10 @@ def test_track_av_bad_input(main, tmp_path, capsys):
 
     audio, fs = sf.read(other / "audio.wav")
     sf.write(other / "audio.wav", audio[:, :2], fs)
-    assert main(["track-av", str(other), "-o", out, "--mapping", str(mapping_path)]) == 2
+    assert main(["track-av", str(other), "-o", out, "--model", "image", "--mapping",
+                 str(mapping_path)]) == 2
+    assert "2 channels" in capsys.readouterr().err
+    assert main(["track-av", str(other), "-o", out]) == 2
     assert "2 channels" in capsys.readouterr().err
     assert not (tmp_path / "o" / "tracks.txt").exists()  # nothing half-written
 
@@ -83,10 +93,42 @@ def test_track_av_bad_input(main, tmp_path, capsys):
 def test_track_av_trains_and_saves_a_mapping(main, tmp_path):
     scene_dir, _, _ = walkout()
     out = tmp_path / "trained"
-    args = ["track-av", str(scene_dir), "-o", str(out), "-q", "--calibration-positions", "16"]
+    args = ["track-av", str(scene_dir), "-o", str(out), "-q", "--model", "image",
+            "--calibration-positions", "16"]
     assert main(args) == 0
     from avtrack.av.gllim import load_mapping
 
     mapping = load_mapping(out / "mapping.npz")
     assert mapping.meta["scene"] == scene_dir.name and mapping.meta["n_mics"] == 4
     assert (out / "tracks.txt").is_file() and (out / "speech.rttm").is_file()
+
+
+def test_track_av_direction_model_keeps_the_person_out_of_the_image(main, tmp_path, capsys):
+    """Person 1 walks out of the whole image while the two talk and comes back: one identity
+    in tracks.txt and persons.csv, away frames out of view with no pixel; person 2, never
+    seen, gets a track in persons.csv and speaker turns."""
+    from avtrack.io.doa import read_doa_csv
+
+    scene_dir = out_of_image()
+    out = tmp_path / "dir"
+    assert main(["track-av", str(scene_dir), "-o", str(out)]) == 0
+    assert "tracked 400 frames" in capsys.readouterr().out
+    tracks = read_mot(out / "tracks.txt", kind="result")
+    assert len(np.unique(tracks.ids)) == 1
+    seen_id = str(int(tracks.ids[0]))
+    lines = (out / "persons.csv").read_text().splitlines()
+    assert lines[0] == "frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking"
+    rows = [line.split(",") for line in lines[1:]]
+    mine = [r for r in rows if r[2] == seen_id]
+    assert len(mine) == 400  # tracked every frame, in view or not
+    away = [r for r in mine if 6.0 <= float(r[1]) <= 10.0]
+    assert all(r[7] == "0" and r[5] == "" for r in away)
+    truth = read_doa_csv(scene_dir / "gt" / "doa.csv")
+    az1 = np.median(truth.azimuth_deg[(truth.ids == 1) & (truth.time_s > 6) & (truth.time_s < 10)])
+    assert abs(np.median([float(r[3]) for r in away]) - az1) < 10.0
+    others = {r[2] for r in rows if r[2] != seen_id and r[7] == "0"
+              and abs(float(r[3]) + 75.0) < 12.0}
+    assert len(others) == 1  # the talker never seen
+    turns = read_rttm(out / "speech.rttm")
+    speakers = {t.speaker for t in turns}
+    assert speakers == {f"P{seen_id}", f"P{others.pop()}"}

@@ -139,7 +139,7 @@ class PersonConfig:
     birth_window: int = 12
     birth_min_frames: int = 6
     birth_radius_deg: float = 8.0
-    birth_separation_deg: float = 15.0
+    birth_separation_deg: float = 10.0
     link_gate_deg: float = 15.0
     link_min_cosine: float = 0.3
     reid_min_cosine: float = 0.8
@@ -149,9 +149,9 @@ class PersonConfig:
     lost_noise_deg: float = 3.0
     lost_max_std_deg: float = 25.0
     death_s: float = 15.0
-    unseen_in_view_death_s: float = 3.0
+    unseen_in_view_death_s: float = 10.0
     tentative_death_s: float = 1.0
-    established_s: float = 1.0
+    established_s: float = 0.5
     merge_deg: float = 6.0
     merge_frames: int = 10
     speaking_threshold: float = 0.5
@@ -659,6 +659,7 @@ class PersonTracker:
                 continue
             el = float(np.median(self.mu[:, 1])) if self.n_persons else 0.0
             self._add(wrap_deg(centre), el, DEFAULT_DISTANCE_M, 20.0, None)
+            self.evidence[-1] = support  # the frames it was heard in before its birth
             born += 1
             self.pool = [p[np.abs(wrap_deg(p - centre)) > c.birth_radius_deg]
                          for p in self.pool]

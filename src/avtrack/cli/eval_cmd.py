@@ -1,7 +1,8 @@
 """``avtrack eval``: score a result against ground truth.
 
 Tasks (each its own sub-command): ``mot`` — MOTChallenge visual tracking (MOTA, IDF1, HOTA ...);
-``doa`` — frame-wise speaker localization (thesis §5.5.1: MD and FA rates, MAE).
+``doa`` — frame-wise speaker localization (thesis §5.5.1: MD and FA rates, MAE); ``der`` —
+diarization error rate of an RTTM file.
 """
 
 from __future__ import annotations
@@ -20,7 +21,20 @@ EVAL_EXAMPLES = """\
 examples:
   avtrack eval mot gt/gt.txt results/TUD-Campus.txt
   avtrack eval doa scene/gt/doa.csv doa.csv --success-deg 10
+  avtrack eval der scene/gt/speech.rttm out/speech.rttm
   avtrack eval mot --help
+"""
+
+DER_EXAMPLES = """\
+examples:
+  avtrack eval der scene/gt/speech.rttm out/speech.rttm
+  # no collar, overlapping speech not scored, scores as JSON
+  avtrack eval der ref.rttm hyp.rttm --collar 0 --skip-overlap --json der.json
+
+The collar is pyannote.metrics' (its total width: 0.5 s forgives 0.25 s on each side of every
+reference boundary, NIST md-eval's "-c 0.25"). Speakers are mapped one to one to maximise the
+time they agree (Hungarian algorithm); components are summed over the recordings (file ids) of
+the reference, as pyannote.metrics accumulates them.
 """
 
 MOT_EXAMPLES = """\
@@ -122,6 +136,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     doa.set_defaults(func=run_doa)
     add_config_option(doa)
 
+    der = tasks.add_parser(
+        "der",
+        help="diarization error rate of an RTTM file (missed, false alarm, confusion)",
+        description=(
+            "Diarization error rate (NIST RT definition, as pyannote.metrics computes it) of a\n"
+            "hypothesis RTTM against a reference RTTM: (missed + false alarm + speaker\n"
+            "confusion) / total reference speech."
+        ),
+        epilog=DER_EXAMPLES,
+        formatter_class=HelpFormatter,
+    )
+    der.add_argument("reference", type=Path, metavar="REF.rttm", help="reference speaker turns")
+    der.add_argument("hypothesis", type=Path, metavar="HYP.rttm", help="hypothesis turns")
+    der.add_argument(
+        "--collar", type=float, default=0.5, metavar="SECONDS",
+        help="total width of the unscored collar around each reference boundary, as in "
+        "pyannote.metrics (default: %(default)s, i.e. 0.25 s on each side)",
+    )
+    der.add_argument(
+        "--skip-overlap", action="store_true",
+        help="do not score regions where reference speakers overlap",
+    )
+    der.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
+    add_common(der)
+    der.set_defaults(func=run_der)
+
 
 DOA_EXAMPLES = """\
 examples:
@@ -192,4 +232,50 @@ def run_mot(args: argparse.Namespace) -> int:
         print(format_table({args.result.stem: scores}, columns=columns))
         if args.json is not None and args.verbose:
             print(f"wrote {args.json}")
+    return 0
+
+
+def run_der(args: argparse.Namespace) -> int:
+    from avtrack.io.rttm import read_rttm
+    from avtrack.metrics.der import DERComponents, diarization_error_rate
+
+    if not (args.collar >= 0 and args.collar < float("inf")):
+        raise InputError(f"--collar must be a number of seconds >= 0, got {args.collar}")
+    if args.json is not None and args.json.is_dir():
+        raise InputError("--json must name a file, got a directory", args.json)
+    ref = read_rttm(args.reference)
+    hyp = read_rttm(args.hypothesis)
+    if not ref:
+        raise InputError("no speaker turns: the DER needs reference speech", args.reference)
+    parts = []
+    for file_id in sorted({s.file_id for s in ref}):
+        r = [s for s in ref if s.file_id == file_id]
+        h = [s for s in hyp if s.file_id == file_id] if len({s.file_id for s in ref}) > 1 else hyp
+        # pyannote's collar is the total width; ours is per side
+        parts.append(diarization_error_rate(r, h, collar=args.collar / 2,
+                                            skip_overlap=args.skip_overlap))
+    c = DERComponents.sum(parts)
+    scores = {
+        "DER": 100 * c.rate,
+        "missed": 100 * c.missed / c.total if c.total else float("nan"),
+        "false_alarm": 100 * c.false_alarm / c.total if c.total else float("nan"),
+        "confusion": 100 * c.confusion / c.total if c.total else float("nan"),
+        "total_s": c.total,
+        "reference_speakers": len({s.speaker for s in ref}),
+        "hypothesis_speakers": len({s.speaker for s in hyp}),
+    }
+    if args.json is not None:
+        with atomic_write(args.json) as fh:
+            json.dump({"reference": str(args.reference), "hypothesis": str(args.hypothesis),
+                       "collar": args.collar, "skip_overlap": args.skip_overlap,
+                       "scores": scores}, fh, indent=2)
+            fh.write("\n")
+    if not args.quiet:
+        print(f"DER of {args.hypothesis} against {args.reference} (collar {args.collar:g} s"
+              f"{', overlap skipped' if args.skip_overlap else ''}; lower is better):")
+        print(f"  DER {scores['DER']:.2f} %  = missed {scores['missed']:.2f} + false alarm "
+              f"{scores['false_alarm']:.2f} + confusion {scores['confusion']:.2f}  "
+              f"({c.total:.1f} s of reference speech; speakers: "
+              f"{scores['hypothesis_speakers']} found, {scores['reference_speakers']} in the "
+              f"reference)")
     return 0

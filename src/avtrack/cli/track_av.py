@@ -210,6 +210,9 @@ def run_direction(args: argparse.Namespace) -> int:
 
     if args.plot:
         raise InputError("--plot draws the image-plane model's covariances; use --model image")
+    if args.mapping is not None:
+        raise InputError("--mapping is the image-plane model's audio-to-image mapping; the "
+                         "direction model maps geometrically (use --model image)")
     config, vcfg = load_person_config(args.config, args.threshold)
     scene = load_scene(args.scene)
     out = args.output
