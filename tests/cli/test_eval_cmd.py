@@ -164,3 +164,36 @@ def test_eval_doa_bad_input(tmp_path, capsys):
     (tmp_path / "gt.csv").write_text("frame,time_s\n")
     assert cli_main.main(["eval", "doa", str(tmp_path / "gt.csv"), str(tmp_path / "gt.csv")]) == 2
     assert "gt.csv" in capsys.readouterr().err
+
+
+def test_eval_der_matches_pyannote(tmp_path, capsys):
+    """``avtrack eval der`` with pyannote.metrics' collar (total width) and overlap options."""
+    import json
+
+    pytest.importorskip("pyannote.metrics")
+    from pyannote.core import Annotation, Segment
+    from pyannote.metrics.diarization import DiarizationErrorRate
+
+    from avtrack.cli.main import main
+
+    ref_turns = [("A", 0.0, 4.0), ("B", 3.5, 7.0), ("A", 8.0, 10.0)]
+    hyp_turns = [("x", 0.2, 3.0), ("y", 3.0, 7.5), ("x", 7.8, 9.0), ("z", 9.0, 10.5)]
+    for name, turns in (("ref", ref_turns), ("hyp", hyp_turns)):
+        (tmp_path / f"{name}.rttm").write_text("".join(
+            f"SPEAKER rec 1 {s:.3f} {e - s:.3f} <NA> <NA> {spk} <NA> <NA>\n"
+            for spk, s, e in turns))
+    for collar, skip in ((0.0, False), (0.5, False), (0.5, True)):
+        out = tmp_path / "der.json"
+        args = ["eval", "der", str(tmp_path / "ref.rttm"), str(tmp_path / "hyp.rttm"),
+                "--collar", str(collar), "--json", str(out), "-q"]
+        assert main([*args, *(["--skip-overlap"] if skip else [])]) == 0
+        ours = json.loads(out.read_text())["scores"]["DER"]
+        ref, hyp = Annotation(), Annotation()
+        for ann, turns in ((ref, ref_turns), (hyp, hyp_turns)):
+            for spk, s, e in turns:
+                ann[Segment(s, e)] = spk
+        theirs = 100 * DiarizationErrorRate(collar=collar, skip_overlap=skip)(ref, hyp)
+        assert ours == pytest.approx(theirs, abs=1e-6)
+    assert main(["eval", "der", str(tmp_path / "ref.rttm"), str(tmp_path / "hyp.rttm")]) == 0
+    assert "lower is better" in capsys.readouterr().out
+    assert main(["eval", "der", str(tmp_path / "none.rttm"), str(tmp_path / "hyp.rttm")]) == 2
