@@ -74,7 +74,7 @@ def test_track_av_bad_input(main, tmp_path, capsys):
                  str(cfg)]) == 2
     assert "cfg.yaml: sigma: unknown field (allowed: " in capsys.readouterr().err
     assert main(["track-av", str(scene_dir), "-o", out, "--config", str(cfg)]) == 2
-    assert "cfg.yaml" in (err := capsys.readouterr().err) and "'sigma'" in err
+    assert "cfg.yaml: sigma: unknown field (allowed: " in capsys.readouterr().err
     # a scene whose audio has another number of channels than the mapping's array
     other = tmp_path / "stereo"
     shutil.copytree(scene_dir, other)

@@ -169,8 +169,10 @@ def test_dataclass_validation(tmp_path):
 def test_shared_tud_campus(shared_data):
     folder = shared_data / "mot15" / "TUD-Campus"
     seq = load_mot_sequence(folder)
-    assert seq.name == "TUD-Campus" and seq.length == 71 and seq.image_size is None
-    assert "no seqinfo.ini" in seq.note and "length from the last annotated frame" in seq.note
+    # the shared folder carries MOT15's seqinfo.ini (71 frames, 640 x 480, 25 fps)
+    assert seq.name == "TUD-Campus" and seq.length == 71 and seq.image_size == (640, 480)
+    assert seq.frame_rate == 25.0
+    assert "image size from seqinfo.ini" in seq.note and "length from seqinfo.ini" in seq.note
     assert seq.image_dir is None
     assert len(seq.detections) == 321 and len(seq.ground_truth) == 359
     np.testing.assert_allclose(seq.detections.boxes[0], [281.931, 187.466, 79.93, 209.537])
@@ -178,4 +180,5 @@ def test_shared_tud_campus(shared_data):
     assert len(np.unique(seq.ground_truth.ids)) > 1
     sized = load_mot_sequence(folder, image_size=(640, 480))  # README: 640 x 480
     assert sized.image_size == (640, 480)
-    assert list_mot_sequences(shared_data / "mot15") == [folder]
+    listed = list_mot_sequences(shared_data / "mot15")
+    assert folder in listed and listed == sorted(listed)  # six MOT15 sequences are shared

@@ -541,7 +541,7 @@ def test_exclusive_projection_matches_slsqp(seed):
     ]
     res = minimize(objective, alpha.ravel(), jac=True, method="SLSQP",
                    bounds=[(1e-12, 1.0)] * (m * n1), constraints=constraints,
-                   options={"ftol": 1e-15, "maxiter": 1000})
+                   options={"ftol": 1e-12, "maxiter": 1000})
     assert res.success
     np.testing.assert_allclose(q, res.x.reshape(m, n1), rtol=0, atol=1e-6)
 

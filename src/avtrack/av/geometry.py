@@ -157,3 +157,21 @@ class CameraGeometry:
             & (uv[:, 1] <= h)
         )
         return uv, inside
+
+    def view_azimuths(self, distance: float = DEFAULT_DISTANCE_M) -> tuple[float, float]:
+        """Azimuths (degrees) of the left and right image edges on the principal row, for a
+        head ``distance`` metres away (through the array's centre height)."""
+        cam = self.camera
+        h = cam.fy * HEAD_HEIGHT_M / distance  # a head's box height at that depth
+        boxes = np.array([[0.0 - 0.5, cam.cy - h / 2, 1.0, h],
+                          [cam.width - 0.5, cam.cy - h / 2, 1.0, h]])
+        az, _, _ = self.boxes_to_directions(boxes)
+        return float(az[0]), float(az[1])
+
+    def image_side(
+        self, az_deg: np.ndarray, el_deg: np.ndarray, distance: np.ndarray
+    ) -> np.ndarray:
+        """``(N,)`` -1 for directions to the left of the camera's optical axis, +1 to its
+        right (where to point at a person outside the image)."""
+        xc = self.camera.to_camera(self.direction_to_room(az_deg, el_deg, distance))
+        return np.where(xc[:, 0] < 0, -1, 1)

@@ -65,12 +65,13 @@ speaking when at least ``speaking_threshold``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from avtrack.av.geometry import DEFAULT_DISTANCE_M, CameraGeometry, wrap_deg
+from avtrack.tracking.ovbt import OVBTConfig
 
 STATE_DIM = 4  # (azimuth, elevation, azimuth velocity, elevation velocity)
 
@@ -127,6 +128,9 @@ class PersonConfig:
         A person is *heard* at a frame when its speaking probability is at least this.
     appearance_rate : float
         Weight of a new descriptor in the person's running appearance mean.
+    visual : OVBTConfig
+        The visual tracker whose tracks are linked to persons (by default with the cosine
+        appearance model, for re-identification embeddings).
     """
 
     sigma_visual_deg: float = 1.5
@@ -157,9 +161,16 @@ class PersonConfig:
     speaking_threshold: float = 0.5
     heard_threshold: float = 0.5
     appearance_rate: float = 0.1
+    visual: OVBTConfig = field(default_factory=lambda: OVBTConfig(appearance="cosine"))
 
     def __post_init__(self) -> None:
+        if not isinstance(self.visual, OVBTConfig):
+            raise ValueError(
+                f"PersonConfig.visual must be an OVBTConfig, got {type(self.visual).__name__}"
+            )
         for f in fields(self):
+            if f.name == "visual":
+                continue
             v = getattr(self, f.name)
             if isinstance(v, bool) or not isinstance(v, int | float) or not np.isfinite(v):
                 raise ValueError(f"PersonConfig.{f.name} must be a finite number, got {v!r}")
@@ -203,13 +214,18 @@ class PersonConfig:
 
     @classmethod
     def from_dict(cls, values: dict) -> PersonConfig:
-        """Build from a mapping; unknown keys are rejected by name."""
+        """Build from a mapping (``visual`` a mapping of OVBTConfig fields); unknown keys
+        are rejected by name."""
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(values) - known)
         if unknown:
             raise ValueError(f"unknown person-tracker parameter(s) {unknown}; known: "
                              f"{sorted(known)}")
-        return cls(**values)
+        values = dict(values)
+        visual = values.pop("visual", None)
+        if isinstance(visual, dict):
+            visual = OVBTConfig.from_dict({"appearance": "cosine", **visual})
+        return cls(**values, **({} if visual is None else {"visual": visual}))
 
 
 @dataclass(frozen=True)
@@ -231,6 +247,8 @@ class PersonFrame:
         Speaking probability.
     seen : ndarray (N,) bool
         A linked visual track reported this frame.
+    side : ndarray (N,) int
+        -1: left of the camera's optical axis, +1: right.
     visual_ids : ndarray (M,) int, person_of_visual : ndarray (M,) int
         The visual tracks of this frame and the person each belongs to.
     """
@@ -243,6 +261,7 @@ class PersonFrame:
     in_view: np.ndarray
     speaking: np.ndarray
     seen: np.ndarray
+    side: np.ndarray
     visual_ids: np.ndarray
     person_of_visual: np.ndarray
 
@@ -499,9 +518,10 @@ class PersonTracker:
         alive = set(self.ids.tolist())
         pov = np.array([p if p in alive else -1 for p in person_of_visual.tolist()],
                        dtype=np.int64)
+        side = self.geometry.image_side(az, el, self.distance)
         return PersonFrame(
             self.ids.copy(), az, el.copy(), self.distance.copy(), px, in_view,
-            np.clip(speaking, 0.0, 1.0), seen, vids, pov,
+            np.clip(speaking, 0.0, 1.0), seen, side, vids, pov,
         )
 
     def _in_view_now(self) -> np.ndarray:

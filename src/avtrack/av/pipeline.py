@@ -53,6 +53,9 @@ class PersonsTable:
     speaking : ndarray (K,) float
         Speaking probability.
     fps : float
+    side : ndarray (K,) int, optional
+        -1 / +1: left / right of the camera's optical axis (for drawing persons out of the
+        image; not written to the CSV).
     """
 
     frames: np.ndarray
@@ -63,6 +66,7 @@ class PersonsTable:
     in_view: np.ndarray
     speaking: np.ndarray
     fps: float
+    side: np.ndarray | None = None
 
     def __len__(self) -> int:
         return int(self.frames.shape[0])
@@ -91,23 +95,28 @@ class PersonsResult:
     ----------
     tracks : MOTData
         Head boxes of the persons seen in the image (ids = person ids).
+    speaking : ndarray (len(tracks),) bool
+        Whether the person of each row of ``tracks`` speaks at that frame.
     persons : PersonsTable
     speech : list of RTTMSegment
         Speaker turns (labels ``P<person id>``).
     n_frames : int
     fps : float
     fov : (float, float)
+    image_size : (int, int)
     timing : dict
         Seconds spent on ``localization``, ``visual`` tracking and ``persons``, and the
         recording's ``duration``.
     """
 
     tracks: MOTData
+    speaking: np.ndarray
     persons: PersonsTable
     speech: list[RTTMSegment]
     n_frames: int
     fps: float
     fov: tuple[float, float]
+    image_size: tuple[int, int]
     timing: dict[str, float]
 
 
@@ -213,7 +222,7 @@ def track_persons(
     fps : float
     n_frames : int
     visual_config : OVBTConfig, optional
-        The visual tracker's parameters (default: cosine appearance, as VAVIT).
+        The visual tracker's parameters (default: ``config.visual``).
     config : PersonConfig, optional
     fov : (float, float), optional
         Pixel columns the camera sees.
@@ -227,7 +236,8 @@ def track_persons(
     """
     if peaks is not None and len(peaks) < n_frames:
         raise ValueError(f"audio peaks cover {len(peaks)} frames, the recording has {n_frames}")
-    vcfg = visual_config or OVBTConfig(appearance="cosine")
+    config = config or PersonConfig()
+    vcfg = visual_config or config.visual
     t0 = time.perf_counter()
     vis = track_mot(detections, appearance, vcfg, geometry.image_size, n_frames)
     vis_app = _visual_appearance(vis, detections, appearance, n_frames)
@@ -235,8 +245,9 @@ def track_persons(
     tracker = PersonTracker(geometry, config, fps, fov, azimuth_span_deg)
     no_audio = np.zeros(0)
     person_ids = np.zeros(len(vis), dtype=np.int64)
-    cols: dict[str, list[np.ndarray]] = {k: [] for k in
-                                         ("frames", "ids", "az", "el", "px", "view", "speak")}
+    cols: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("frames", "ids", "az", "el", "px", "view", "speak", "side")
+    }
     for i, sl in enumerate(vis.frame_slices(n_frames)):
         out = tracker.step(
             vis.ids[sl], vis.boxes[sl], None if vis_app is None else vis_app[sl],
@@ -250,14 +261,22 @@ def track_persons(
         cols["px"].append(out.pixels)
         cols["view"].append(out.in_view)
         cols["speak"].append(out.speaking)
+        cols["side"].append(out.side)
     t2 = time.perf_counter()
     cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in cols.items()}
     persons = PersonsTable(
         cat["frames"].astype(np.int64), cat["ids"].astype(np.int64), cat["az"], cat["el"],
         cat["px"].reshape(-1, 2), cat["view"].astype(bool), cat["speak"], fps,
+        cat["side"].astype(np.int64),
     )
     keep = person_ids >= 0  # a person merged away in the frame its track was linked
     tracks = MOTData(vis.frames[keep], person_ids[keep], vis.boxes[keep], vis.scores[keep])
+    # speaking flag of each box: its person's at that frame
+    thr = tracker.config.speaking_threshold
+    key = {(int(f), int(i)): s >= thr for f, i, s in zip(
+        persons.frames, persons.ids, persons.speaking, strict=True)}
+    speaking = np.array([key.get((int(f), int(i)), False) for f, i in zip(
+        tracks.frames, tracks.ids, strict=True)], dtype=bool)
     speech: list[RTTMSegment] = []
     if peaks is not None:
         speech = speaking_segments(
@@ -270,8 +289,9 @@ def track_persons(
         speech = [seg for seg in speech if total[seg.speaker] >= min_speaker_s]
     timing = {"duration": n_frames / fps, "visual": t1 - t0, "persons": t2 - t1}
     w = geometry.image_size[0]
-    return PersonsResult(tracks, persons, speech, n_frames, fps,
-                         fov if fov is not None else (0.0, float(w)), timing)
+    return PersonsResult(tracks, speaking, persons, speech, n_frames, fps,
+                         fov if fov is not None else (0.0, float(w)),
+                         tuple(geometry.image_size), timing)
 
 
 def scene_geometry(scene) -> CameraGeometry:

@@ -13,13 +13,11 @@ from avtrack.cli import progress
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 
-#: Loudspeaker positions of the simulated calibration that trains the audio-to-image mapping.
-CALIBRATION_POSITIONS = 120
 STEPS = (
     "simulating the meeting",
-    "calibrating the audio-to-image mapping",
-    "tracking and diarizing",
     "localizing the talkers",
+    "tracking and diarizing",
+    "tracking the talkers from audio alone",
     "scoring and writing the report",
 )
 
@@ -53,8 +51,13 @@ def _progress(step: int, quiet: bool) -> float:
 
 def run_av(args: argparse.Namespace) -> int:
     from avtrack.audio.arrays import load_array
+    from avtrack.av.pipeline import (
+        audio_peaks,
+        localizer_grid,
+        scene_geometry,
+        track_scene_persons,
+    )
     from avtrack.cli.localize import localize_signal
-    from avtrack.cli.track_av import train_scene_mapping
     from avtrack.io.doa import read_doa_csv
     from avtrack.io.mot import read_mot, write_mot
     from avtrack.io.rttm import read_rttm, write_rttm
@@ -64,7 +67,7 @@ def run_av(args: argparse.Namespace) -> int:
     from avtrack.metrics.mot import evaluate_mot
     from avtrack.simulate.scene import simulate_scene, write_scene
     from avtrack.tracking.doa_base import DEFAULT_OBSERVATIONS, heatmap_sequence, make_tracker
-    from avtrack.tracking.vavit import load_scene, track_scene
+    from avtrack.tracking.vavit import load_scene
     from avtrack.viz import report
     from avtrack.viz.video import render_scene_video
 
@@ -80,21 +83,25 @@ def run_av(args: argparse.Namespace) -> int:
         scene = simulate_scene(demo_scenario(args.seed, args.duration, args.people))
     scene_dir = write_scene(scene, out / "scene")
 
-    _progress(1, args.quiet)
+    t0 = _progress(1, args.quiet)
     inputs = load_scene(scene_dir)
-    mapping = train_scene_mapping(inputs, CALIBRATION_POSITIONS, args.verbose, args.quiet)
+    array = load_array(scene_dir / "array.json")
+    grid = localizer_grid(array)
+    loc = make_localizer("dprtf-eg", array, grid)
+    heat = localize_signal(loc, scene.audio, None, args.quiet)
+    peaks = audio_peaks(heat.weights, heat.time_s, grid, inputs.fps, inputs.n_frames)
+    span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
 
-    t0 = _progress(2, args.quiet)
+    _progress(2, args.quiet)
     with progress.activity(f"tracking {inputs.n_frames} frames", args.quiet):
-        res = track_scene(scene_dir, mapping, scene=inputs)
+        res = track_scene_persons(inputs, peaks=peaks, span=span)
     t_track = time.perf_counter() - t0
     write_mot(out / "tracks.txt", res.tracks)
     write_rttm(out / "speech.rttm", res.speech)
+    with atomic_write(out / "persons.csv") as fh:
+        fh.write(res.persons.to_csv())
 
     _progress(3, args.quiet)
-    array = load_array(scene_dir / "array.json")
-    loc = make_localizer("dprtf-eg", array)
-    heat = localize_signal(loc, scene.audio, None, args.quiet)
     doa = peak_table(heat, loc.grid, loc.default_threshold)
     seq = heatmap_sequence(heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, 4,
                            DEFAULT_OBSERVATIONS["vonmises"])  # fmt: skip
@@ -118,7 +125,7 @@ def run_av(args: argparse.Namespace) -> int:
         "DOA MAE (deg)": doa_scores.mae,
         "DOA MD %": 100.0 * doa_scores.md_rate,
         "DOA FA %": 100.0 * doa_scores.fa_rate,
-        "tracking real-time factor": t_track / args.duration,
+        "real-time factor": t_track / args.duration,
     }
     cam = json.loads((scene_dir / "camera.json").read_text())
     figures = {
@@ -130,6 +137,10 @@ def run_av(args: argparse.Namespace) -> int:
                 heat.weights, heat.time_s, loc.grid.azimuth_deg, truth, doa_tracks
             )
         ),
+        "Every person's direction from the array, in view or not (thick: speaking; grey / "
+        "cyan: ground truth / speaking; shaded: the camera's view)": report.persons_figure(
+            res.persons, truth, scene_geometry(inputs).view_azimuths()
+        ),
         "Who speaks when: ground truth and diarization": report.timeline_figure(ref, res.speech),
     }
     notes = [
@@ -137,13 +148,16 @@ def run_av(args: argparse.Namespace) -> int:
         f"{len(scene.ids)} people, array {array.name}, speech "
         f"{scene.scenario['speech']['utterances']}",
         "files: scene/ (the simulated scene directory), tracks.txt (MOTChallenge), "
+        "persons.csv (every person every frame: direction, pixel, in view, speaking), "
         "speech.rttm (diarization), scores.json",
     ]
     with progress.activity("rendering the video overlay", args.quiet):
         videos = [render_scene_video(inputs, res, out / f"tracks.{ext}", title="avtrack demo")
                   for ext in ("webm", "mp4")]  # fmt: skip
     notes.append("tracks.webm / tracks.mp4: the tracks, identities and speaking status over "
-                 "the rendered camera frames (thin grey: ground truth)")  # fmt: skip
+                 "the rendered camera frames (thin grey: ground truth); persons tracked without "
+                 "a box: a ring at their direction, or an arrow at the image edge with their "
+                 "azimuth when out of the image")  # fmt: skip
     report.write_report(out / "index.html", "avtrack demo: a simulated meeting", scores,
                         figures, notes, video=videos[0], video_links=videos)  # fmt: skip
     with atomic_write(out / "scores.json") as fh:

@@ -161,6 +161,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     der.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
     add_common(der)
     der.set_defaults(func=run_der)
+    add_config_option(der)
 
 
 DOA_EXAMPLES = """\

@@ -177,22 +177,11 @@ def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = Fa
 
 
 def load_person_config(path: Path | None, threshold: float | None):
-    """PersonConfig and the visual tracker's OVBTConfig from ``--config`` (the visual fields
-    under ``visual:``), with ``--threshold`` on top."""
+    """PersonConfig from ``--config`` (the visual tracker's fields under ``visual:``), with
+    ``--threshold`` on top."""
     from avtrack.av.persons import PersonConfig
-    from avtrack.cli.base import read_config_mapping
-    from avtrack.tracking.ovbt import OVBTConfig
 
-    values = dict(read_config_mapping(path, "PersonConfig fields")) if path is not None else {}
-    visual = values.pop("visual", None) or {}
-    if threshold is not None:
-        values["speaking_threshold"] = threshold
-    try:
-        cfg = PersonConfig.from_dict(values)
-        vcfg = OVBTConfig.from_dict({"appearance": "cosine", **visual})
-    except (TypeError, ValueError) as exc:
-        raise InputError(str(exc), path) from None
-    return cfg, vcfg
+    return load_config(path, PersonConfig, overrides={"speaking_threshold": threshold})
 
 
 def run(args: argparse.Namespace) -> int:
@@ -213,7 +202,7 @@ def run_direction(args: argparse.Namespace) -> int:
     if args.mapping is not None:
         raise InputError("--mapping is the image-plane model's audio-to-image mapping; the "
                          "direction model maps geometrically (use --model image)")
-    config, vcfg = load_person_config(args.config, args.threshold)
+    config = load_person_config(args.config, args.threshold)
     scene = load_scene(args.scene)
     out = args.output
     if out.exists() and not out.is_dir():
@@ -222,7 +211,7 @@ def run_direction(args: argparse.Namespace) -> int:
     try:
         with progress.activity(f"tracking {scene.n_frames} frames", args.quiet):
             res = track_scene_persons(
-                scene, fov_fraction=args.fov_fraction, config=config, visual_config=vcfg
+                scene, fov_fraction=args.fov_fraction, config=config
             )
     except InputError:
         raise

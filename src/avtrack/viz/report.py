@@ -99,6 +99,42 @@ def heatmap_figure(
     return _png(fig)
 
 
+def persons_figure(persons, truth=None, view_deg: tuple[float, float] | None = None) -> str:
+    """Every tracked person's azimuth over time, in view or not: thick where speaking, thin
+    where silent; the ground truth in grey (cyan where speaking); the camera's horizontal field
+    of view shaded.
+
+    Parameters
+    ----------
+    persons : PersonsTable
+        :class:`avtrack.av.pipeline.PersonsTable`.
+    truth : DOATable, optional
+    view_deg : (float, float), optional
+        Azimuths of the image's side edges.
+    """
+    fig, ax = _figure()
+    if view_deg is not None:
+        ax.axhspan(min(view_deg), max(view_deg), color="0.92", zorder=0,
+                   label="camera's view")
+    if truth is not None and len(truth):
+        ax.plot(truth.time_s, truth.azimuth_deg, ",", color="0.6")
+        on = truth.active
+        ax.plot(truth.time_s[on], truth.azimuth_deg[on], ",", color="cyan")
+    cmap = __import__("matplotlib").colormaps["tab10"]
+    t = (persons.frames - 1) / persons.fps
+    for k, pid in enumerate(np.unique(persons.ids)):
+        m = persons.ids == pid
+        talk = m & (persons.speaking >= 0.5)
+        ax.plot(t[m], persons.azimuth_deg[m], ".", ms=1.2, color=cmap(k % 10))
+        ax.plot(t[talk], persons.azimuth_deg[talk], ".", ms=4, color=cmap(k % 10),
+                label=f"person {pid}")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("azimuth from the array (deg)")
+    ax.legend(loc="upper right", fontsize=7, ncol=6, markerscale=2)
+    fig.tight_layout()
+    return _png(fig)
+
+
 def timeline_figure(reference: Sequence[RTTMSegment], hypothesis: Sequence[RTTMSegment]) -> str:
     """Who speaks when: ground truth above, diarization below (like thesis Fig. 4.4)."""
     fig, ax = _figure(9.0, 2.6)

@@ -450,11 +450,13 @@ class _Renderer:
         show_gt_boxes: bool,
         legend: bool,
         title: str | None,
+        persons=None,
     ):
         import cv2
 
         self.cv2 = cv2
         self.tracks, self.speaking, self.gt = tracks, speaking, gt
+        self.persons = persons
         self.fps, self.n_frames, self.title = fps, n_frames, title
         self.show_gt_boxes = show_gt_boxes and gt is not None
         w, h = size
@@ -465,8 +467,14 @@ class _Renderer:
             bg = cv2.copyMakeBorder(bg, 0, h % 2, 0, w % 2, cv2.BORDER_REPLICATE)
         self.background = bg
         self.lay = _Layout(h)
-        self.colours = track_colours(tracks.ids)
+        ids = tracks.ids if persons is None else np.r_[tracks.ids, persons.ids]
+        self.colours = track_colours(ids)
         self.track_rows = tracks.frame_slices(n_frames)
+        self.person_rows = None
+        if persons is not None:
+            bounds = np.searchsorted(persons.frames, np.arange(1, n_frames + 2))
+            self.person_rows = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:],
+                                                            strict=True)]
         self.gt_rows = None if gt is None else gt.frame_slices(n_frames)
         self.legend = _legend(self.colours, gt is not None, self.lay, cv2) if legend else None
 
@@ -511,11 +519,49 @@ class _Renderer:
             if talk:
                 r = lay.bubble
                 _draw_bubble(img, x1 + r + lay.pad + 2, y0 + r, r, colour, cv2)
+        if self.person_rows is not None:
+            self._unseen_persons(img, f, set(ids.tolist()))
         self._header(img, f)
         if self.legend is not None:
             panel, alpha = self.legend
             _blend(img, lay.pad, img.shape[0] - panel.shape[0] - lay.pad, panel, alpha)
         return img
+
+    def _unseen_persons(self, img: np.ndarray, f: int, boxed: set[int]) -> None:
+        """Persons tracked without a box at frame ``f``: a ring at their direction's pixel
+        when it is in the image, else an arrow at the image edge on their side, labelled with
+        their id and azimuth (a speaking bubble when they speak)."""
+        cv2, lay, p = self.cv2, self.lay, self.persons
+        width, height = self.size
+        font = cv2.FONT_HERSHEY_SIMPLEX
+        rows = self.person_rows[f - 1]
+        for k in range(rows.start, rows.stop):
+            pid = int(p.ids[k])
+            if pid in boxed:
+                continue
+            colour = self.colours[pid]
+            talk = bool(p.speaking[k] >= 0.5)
+            x, y = p.pixels[k]
+            text = f"{pid} {p.azimuth_deg[k]:+.0f} deg"
+            r = lay.bubble
+            if np.isfinite(x) and np.isfinite(y):
+                cx, cy = int(round(x)), int(round(y))
+                cv2.circle(img, (cx, cy), 2 * r, colour, lay.thick, cv2.LINE_AA)
+                tx, ty = cx + 2 * r + lay.pad, cy
+            else:
+                left = p.side[k] < 0
+                cy = height // 2 + (pid % 5 - 2) * 4 * r  # persons on one side stack
+                tip = lay.pad if left else width - lay.pad
+                base = tip + 3 * r if left else tip - 3 * r
+                pts = np.array([[tip, cy], [base, cy - 2 * r], [base, cy + 2 * r]], np.int32)
+                cv2.fillPoly(img, [pts], colour, cv2.LINE_AA)
+                (tw, _), _ = cv2.getTextSize(text, font, lay.font_scale, lay.thick)
+                tx = base + lay.pad if left else base - lay.pad - tw
+                ty = cy
+            cv2.putText(img, text, (tx, ty + r // 2), font, lay.font_scale, colour, lay.thick,
+                        cv2.LINE_AA)
+            if talk:
+                _draw_bubble(img, int(tx + r), int(ty - 2 * r), r, colour, cv2)
 
     def _header(self, img: np.ndarray, f: int) -> None:
         cv2, lay = self.cv2, self.lay
@@ -596,6 +642,7 @@ def _renderer(
     show_gt_boxes: bool,
     legend: bool,
     title: str | None,
+    persons=None,
 ) -> _Renderer:
     talk, size, fps, n = _check_inputs(tracks, speaking, image_size, fps, n_frames, gt)
     if not isinstance(show_gt_boxes, bool) or not isinstance(legend, bool):
@@ -603,7 +650,8 @@ def _renderer(
     if title is not None and not isinstance(title, str):
         raise TypeError(f"title must be a string or None, got {type(title).__name__}")
     return _Renderer(
-        tracks, talk, size, fps, n, gt, camera, _room_dims(room_dims), show_gt_boxes, legend, title
+        tracks, talk, size, fps, n, gt, camera, _room_dims(room_dims), show_gt_boxes, legend,
+        title, persons,
     )
 
 
@@ -620,6 +668,7 @@ def render_overlay_frames(
     show_gt_boxes: bool = True,
     legend: bool = True,
     title: str | None = None,
+    persons=None,
 ) -> Iterator[np.ndarray]:
     """The frames of :func:`render_overlay_video`, one at a time (the inputs are checked and
     the background drawn before the first one is asked for).
@@ -644,6 +693,7 @@ def render_overlay_frames(
         show_gt_boxes,
         legend,
         title,
+        persons,
     )
     return (r.frame(f) for f in range(1, r.n_frames + 1))
 
@@ -664,6 +714,7 @@ def render_overlay_video(
     legend: bool = True,
     title: str | None = None,
     progress: bool = False,
+    persons=None,
 ) -> Path:
     """Write the video of the tracks and their speaking status over the rendered room.
 
@@ -700,6 +751,10 @@ def render_overlay_video(
         Written at the top right of each frame.
     progress : bool
         Show a progress bar (tqdm, on stderr).
+    persons : PersonsTable, optional
+        Every tracked person every frame (:class:`avtrack.av.pipeline.PersonsTable`): those
+        without a box are drawn as a ring at their direction's pixel, or, out of the image, as
+        an arrow at the edge on their side with their azimuth.
 
     Returns
     -------
@@ -733,6 +788,7 @@ def render_overlay_video(
         show_gt_boxes,
         legend,
         title,
+        persons,
     )
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp_name = temp_output(path, path.suffix)
@@ -809,10 +865,13 @@ def render_scene_video(
 
     from avtrack.errors import InputError
     from avtrack.io.mot import read_mot
+    from avtrack.av.pipeline import PersonsResult
     from avtrack.tracking.vavit import AVSceneResult, SceneInputs, load_scene
 
-    if not isinstance(result, AVSceneResult):
-        raise TypeError(f"result must be an AVSceneResult, got {type(result).__name__}")
+    if not isinstance(result, AVSceneResult | PersonsResult):
+        raise TypeError(
+            f"result must be an AVSceneResult or PersonsResult, got {type(result).__name__}"
+        )
     if isinstance(scene, str | Path):
         scene = load_scene(scene)
     if not isinstance(scene, SceneInputs):
@@ -850,4 +909,5 @@ def render_scene_video(
         legend=legend,
         title=title,
         progress=progress,
+        persons=getattr(result, "persons", None),
     )
