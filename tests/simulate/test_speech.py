@@ -304,3 +304,13 @@ def test_fill_segments_bad_arguments():
         )
     with pytest.raises(ValueError, match="utterance 'x' must be a non-empty finite 1-D"):
         fill_segments([SpeechSegment(1, 0.0, 1.0)], [("x", np.zeros((2, 2)))], 8000, 1, 2.0, rng)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_turn_taking_never_overlaps_a_speaker_with_itself(seed):
+    """With overlapping turn changes, A cut in on by B who is cut in on by A again must not
+    start A's new turn before A's previous one ends (the meeting scene of seed 16 did)."""
+    segs = turn_taking_schedule(3, 40.0, np.random.default_rng(seed), 2.5, 0.6, 0.6)
+    for spk in {s.speaker for s in segs}:
+        mine = sorted((s.start, s.end) for s in segs if s.speaker == spk)
+        assert all(b[0] >= a[1] - 1e-9 for a, b in itertools.pairwise(mine))

@@ -206,6 +206,7 @@ def turn_taking_schedule(
     everyone = np.ones(n_s, dtype=bool)
     t = pause()
     prev, prev_end = -1, 0.0
+    last_end = np.zeros(n_s)  # when each speaker's last turn ends
     while t < dur:
         if mask is None:
             allowed = everyone
@@ -220,6 +221,8 @@ def turn_taking_schedule(
         others = np.flatnonzero(allowed & (np.arange(n_s) != prev))
         if others.size:
             spk = int(rng.choice(others))
+            # a speaker cut in on by the one who cut in on them: their own turn ends first
+            t = max(t, float(last_end[spk]))
         else:  # only the current speaker may talk: a new turn after a pause
             spk = prev
             if t < prev_end:
@@ -234,6 +237,7 @@ def turn_taking_schedule(
             continue
         segments.append(SpeechSegment(spk + 1, t, end))
         prev, prev_end = spk, end
+        last_end[spk] = end
         if rng.random() < p_overlap:  # next speaker cuts in before this turn ends
             t = end - min(rng.uniform(0.2, 1.0), 0.5 * (end - t))
         else:
