@@ -130,6 +130,19 @@ def test_silent_person_out_of_view_is_ended():
     assert ends - quiet_from == pytest.approx(4.0 * 25, abs=2)
 
 
+def test_person_ended_away_is_revived_on_return_by_appearance():
+    """Silent and away longer than death_s: the person ends; back in view, the new visual
+    track looks like them and gets their identity back."""
+    geo = geometry(60.0)
+    tracker = PersonTracker(geo, PersonConfig(death_s=2.0), fps=25.0)
+    outs = run_frames(tracker, walk_out_and_back(geo, talk_away=False, n_away=200))
+    assert any(o.ids.size == 0 for o in outs)  # it did end while away
+    assert all(o.person_of_visual.tolist() == [1] for o in outs[-40:])
+    no_revival = PersonTracker(geo, PersonConfig(death_s=2.0, revive_s=1.0), fps=25.0)
+    outs = run_frames(no_revival, walk_out_and_back(geo, talk_away=False, n_away=200))
+    assert outs[-1].person_of_visual.tolist() == [2]
+
+
 def test_talker_never_seen_is_born_from_audio_and_speaks():
     geo = geometry(60.0)
     tracker = PersonTracker(geo, fps=25.0)

@@ -52,6 +52,8 @@ Target management (the parts of thesis §3.1.4 and §4.6.2 this space changes).
   for a person seen or heard for less than ``established_s`` in all, e.g. a false alarm).
   A person never seen who stays in the camera's view for ``unseen_in_view_death_s`` ends too.
   While unseen, a person's velocity decays (``velocity_decay``, in mean and covariance).
+* *Revival*: a person who ended less than ``revive_s`` ago is revived, identity included, by
+  an audio birth near where they were last or a visual track that looks like them.
 * *Merging*: two persons closer than ``merge_deg`` for ``merge_frames`` frames, neither seen,
   are one person: the older identity takes the better-localised state.
 * *Lost in view*: a person whose direction is in the camera's view but who has not been seen
@@ -121,6 +123,11 @@ class PersonConfig:
     unseen_in_view_death_s : float
         A person never seen whose direction has been in the camera's view for this long is
         not there (the camera would see them): it ends.
+    revive_s, revive_deg : float
+        A person who ended less than ``revive_s`` ago (after being seen or heard for at least
+        ``established_s``) is *revived*, identity and appearance, by an audio birth within
+        ``revive_deg`` of where they were last, or by a new visual track whose appearance
+        cosine with theirs is at least ``reid_min_cosine``.
     merge_deg : float
     merge_frames : int
     speaking_threshold : float
@@ -154,6 +161,8 @@ class PersonConfig:
     lost_max_std_deg: float = 25.0
     death_s: float = 15.0
     unseen_in_view_death_s: float = 10.0
+    revive_s: float = 60.0
+    revive_deg: float = 15.0
     tentative_death_s: float = 1.0
     established_s: float = 0.5
     merge_deg: float = 6.0
@@ -186,6 +195,8 @@ class PersonConfig:
             "death_s",
             "tentative_death_s",
             "unseen_in_view_death_s",
+            "revive_s",
+            "revive_deg",
             "merge_deg",
             "lost_noise_deg",
             "lost_max_std_deg",
@@ -347,6 +358,8 @@ class PersonTracker:
         self.close_run: dict[tuple[int, int], int] = {}
         self.link: dict[int, int] = {}  # visual track id -> person id
         self.pool: list[np.ndarray] = []  # unexplained audio azimuths of recent frames
+        # ended persons that may be revived: id -> (frame ended, azimuth, appearance or None)
+        self.ended: dict[int, tuple[int, float, np.ndarray | None]] = {}
 
     @property
     def n_persons(self) -> int:
@@ -355,10 +368,12 @@ class PersonTracker:
     def _add(
         self, az: float, el: float, dist: float, el_std: float, app: np.ndarray | None,
         seen: bool = False,
+        pid: int | None = None,
     ) -> int:
         c = self.config
-        pid = self.next_id
-        self.next_id += 1
+        if pid is None:
+            pid = self.next_id
+            self.next_id += 1
         self.ids = np.r_[self.ids, pid]
         self.mu = np.vstack([self.mu, [[az, el, 0.0, 0.0]]])
         g = np.diag([c.init_std_deg**2, el_std**2, 1.0, 1.0])
@@ -380,8 +395,15 @@ class PersonTracker:
             )
         return pid
 
-    def _keep(self, keep: np.ndarray) -> None:
+    def _keep(self, keep: np.ndarray, died: bool = False) -> None:
         gone = set(self.ids[~keep].tolist())
+        if died:  # established persons may be revived (see PersonConfig.revive_s)
+            c = self.config
+            for i in np.flatnonzero(~keep & (self.evidence >= c.established_s * self.fps)):
+                app = None
+                if self.appearance is not None and np.all(np.isfinite(self.appearance[i])):
+                    app = self.appearance[i].copy()
+                self.ended[int(self.ids[i])] = (self.frame, float(self.mu[i, 0]), app)
         self.ids, self.mu, self.gamma = self.ids[keep], self.mu[keep], self.gamma[keep]
         self.distance = self.distance[keep]
         self.quiet_run, self.unseen_run = self.quiet_run[keep], self.unseen_run[keep]
@@ -499,7 +521,9 @@ class PersonTracker:
         )
         if not np.all(keep):
             speaking, seen = speaking[keep], seen[keep]
-            self._keep(keep)
+            self._keep(keep, died=True)
+        horizon = self.frame - c.revive_s * self.fps
+        self.ended = {k: v for k, v in self.ended.items() if v[0] >= horizon}
         speaking, seen = self._merge(speaking, seen)
 
         # --- births from audio --------------------------------------------------------------
@@ -561,9 +585,20 @@ class PersonTracker:
                     out[i] = self.ids[cand[j]]
         for i in np.flatnonzero(out < 0):
             m = new[i]
+            pid = None
+            if app is not None and np.all(np.isfinite(app[m])):
+                best = c.reid_min_cosine
+                for k, (_, _, a_old) in self.ended.items():
+                    if a_old is None:
+                        continue
+                    cos = float(_cosine(app[m][None], a_old[None])[0, 0])
+                    if cos >= best:
+                        best, pid = cos, k
+                if pid is not None:  # someone who ended lately, back in view
+                    del self.ended[pid]
             out[i] = self._add(
                 float(v_az[m]), float(v_el[m]), float(v_dist[m]), c.init_std_deg,
-                None if app is None else app[m], seen=True,
+                None if app is None else app[m], seen=True, pid=pid,
             )
         for i, m in enumerate(new):
             self.link[int(vids[m])] = int(out[i])
@@ -678,7 +713,15 @@ class PersonTracker:
             ) < c.birth_separation_deg:
                 continue
             el = float(np.median(self.mu[:, 1])) if self.n_persons else 0.0
-            self._add(wrap_deg(centre), el, DEFAULT_DISTANCE_M, 20.0, None)
+            pid, app = None, None
+            near_ended = [(abs(float(wrap_deg(v[1] - centre))), k) for k, v in self.ended.items()]
+            near_ended = [x for x in near_ended if x[0] <= c.revive_deg]
+            if near_ended:  # someone who ended there lately speaks again
+                pid = min(near_ended)[1]
+                app = self.ended.pop(pid)[2]
+            self._add(wrap_deg(centre), el, DEFAULT_DISTANCE_M, 20.0, None, pid=pid)
+            if app is not None and self.appearance is not None:
+                self.appearance[-1] = app
             self.evidence[-1] = support  # the frames it was heard in before its birth
             born += 1
             self.pool = [p[np.abs(wrap_deg(p - centre)) > c.birth_radius_deg]
