@@ -158,13 +158,16 @@ class CameraGeometry:
         )
         return uv, inside
 
-    def view_azimuths(self, distance: float = DEFAULT_DISTANCE_M) -> tuple[float, float]:
-        """Azimuths (degrees) of the left and right image edges on the principal row, for a
-        head ``distance`` metres away (through the array's centre height)."""
+    def view_azimuths(
+        self, distance: float = DEFAULT_DISTANCE_M, columns: tuple[float, float] | None = None
+    ) -> tuple[float, float]:
+        """Azimuths (degrees) of the left and right edges of the image (or of the pixel
+        ``columns``) on the principal row, for a head ``distance`` metres away."""
         cam = self.camera
+        lo, hi = (0.0, float(cam.width)) if columns is None else columns
         h = cam.fy * HEAD_HEIGHT_M / distance  # a head's box height at that depth
-        boxes = np.array([[0.0 - 0.5, cam.cy - h / 2, 1.0, h],
-                          [cam.width - 0.5, cam.cy - h / 2, 1.0, h]])
+        boxes = np.array([[lo - 0.5, cam.cy - h / 2, 1.0, h],
+                          [hi - 0.5, cam.cy - h / 2, 1.0, h]])
         az, _, _ = self.boxes_to_directions(boxes)
         return float(az[0]), float(az[1])
 

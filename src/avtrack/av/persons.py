@@ -56,6 +56,10 @@ Target management (the parts of thesis §3.1.4 and §4.6.2 this space changes).
   an audio birth near where they were last or a visual track that looks like them.
 * *Merging*: two persons closer than ``merge_deg`` for ``merge_frames`` frames, neither seen,
   are one person: the older identity takes the better-localised state.
+* *Negative information*: a person unseen for ``exclusion_s`` whose direction lies in the
+  camera's view is moved just outside it, to the nearest edge: the camera would see them
+  there. (Not in the thesis; without it a track carried by audio alone drifts through the
+  view and takes the voices of the persons the camera does see.)
 * *Lost in view*: a person whose direction is in the camera's view but who has not been seen
   for ``lost_frames`` frames is not where the state says; the azimuth variance grows until
   audio or a visual track finds the person again.
@@ -118,6 +122,12 @@ class PersonConfig:
         many frames is *lost*: each further frame adds ``lost_noise_deg`` squared to the
         azimuth variance, up to ``lost_max_std_deg`` squared.
     lost_noise_deg, lost_max_std_deg : float
+    exclusion_s : float
+        Negative information from the camera: a person not seen for this long whose mean
+        direction lies in the field of view is moved to the nearest edge of the view,
+        ``exclusion_margin_deg`` outside it (the camera would see them there), and a
+        velocity pointing back into the view is dropped.
+    exclusion_margin_deg : float
     death_s, tentative_death_s, established_s : float
         See the module docstring.
     unseen_in_view_death_s : float
@@ -157,6 +167,8 @@ class PersonConfig:
     reid_min_unseen: int = 10
     velocity_decay: float = 0.9
     lost_frames: int = 5
+    exclusion_s: float = 1.0
+    exclusion_margin_deg: float = 2.0
     lost_noise_deg: float = 3.0
     lost_max_std_deg: float = 25.0
     death_s: float = 15.0
@@ -200,6 +212,7 @@ class PersonConfig:
             "merge_deg",
             "lost_noise_deg",
             "lost_max_std_deg",
+            "exclusion_s",
         )
         for name in positive:
             if getattr(self, name) <= 0:
@@ -330,6 +343,8 @@ class PersonTracker:
         if not 0 <= lo < hi <= w:
             raise ValueError(f"PersonTracker: fov must be (lo, hi) within [0, {w}], got {fov!r}")
         self.fov = (lo, hi)
+        left, right = geometry.view_azimuths(DEFAULT_DISTANCE_M, self.fov)
+        self.view_az = (min(left, right), max(left, right))  # azimuths the camera sees
         self.log_clutter = np.log(self.config.clutter_weight / azimuth_span_deg)
         d = np.eye(STATE_DIM)
         d[0, 2] = d[1, 3] = 1.0  # constant velocity, eq. 4.24
@@ -515,6 +530,7 @@ class PersonTracker:
             self.evidence >= c.established_s * self.fps, c.death_s, c.tentative_death_s
         ) * self.fps
         self.ever_seen |= seen
+        self._exclude(seen)
         self.in_view_run = np.where(self._in_view_now(), self.in_view_run + 1, 0)
         keep = (self.quiet_run < limit) & (
             self.ever_seen | (self.in_view_run < c.unseen_in_view_death_s * self.fps)
@@ -547,6 +563,25 @@ class PersonTracker:
             self.ids.copy(), az, el.copy(), self.distance.copy(), px, in_view,
             np.clip(speaking, 0.0, 1.0), seen, side, vids, pov,
         )
+
+    def _exclude(self, seen: np.ndarray) -> None:
+        """Move persons unseen for ``exclusion_s`` out of the camera's view (the nearest
+        edge): where the camera looks and sees nobody, nobody is."""
+        c = self.config
+        lo, hi = self.view_az
+        if not self.n_persons or hi - lo >= 359.0:
+            return
+        rows = np.flatnonzero(
+            ~seen & (self.unseen_run >= c.exclusion_s * self.fps) & self._in_view_now()
+        )
+        for i in rows:
+            a = float(self.mu[i, 0])
+            if a - lo < hi - a:  # nearer the edge of smaller azimuth (the camera's right)
+                self.mu[i, 0] = lo - c.exclusion_margin_deg
+                self.mu[i, 2] = min(self.mu[i, 2], 0.0)
+            else:
+                self.mu[i, 0] = hi + c.exclusion_margin_deg
+                self.mu[i, 2] = max(self.mu[i, 2], 0.0)
 
     def _in_view_now(self) -> np.ndarray:
         """``(N,)`` whether each person's current mean direction is in the field of view."""
