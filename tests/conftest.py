@@ -30,3 +30,16 @@ def shared_data() -> Path:
     if not path.is_dir():
         pytest.skip(f"../shared/data not found: {path.resolve()} (set AVTRACK_SHARED_DATA)")
     return path
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _private_cache(tmp_path_factory):
+    """Trained mappings are cached under ``$AVTRACK_CACHE``: a fresh folder for the test run,
+    never the user's cache."""
+    old = os.environ.get("AVTRACK_CACHE")
+    os.environ["AVTRACK_CACHE"] = str(tmp_path_factory.mktemp("avtrack-cache"))
+    yield
+    if old is None:
+        os.environ.pop("AVTRACK_CACHE", None)
+    else:
+        os.environ["AVTRACK_CACHE"] = old

@@ -13,6 +13,7 @@ from avtrack.av.calibration import (
 )
 from avtrack.simulate.acoustics import Room
 from avtrack.simulate.camera import PinholeCamera
+from avtrack.simulate.scenario import validate_scenario
 from tests.av.scenes import walkout
 
 
@@ -56,3 +57,27 @@ def test_train_mapping_checks_arguments():
     )
     with pytest.raises(ValueError, match="axes"):
         train_mapping(one, axes="z")
+
+
+def test_scene_mapping_is_trained_once_per_geometry(tmp_path, monkeypatch):
+    """The second request for the same geometry reads the cache (no calibration); another
+    camera is another geometry."""
+    import copy
+
+    from avtrack.av import calibration
+    from tests.av.scenes import walkout_scenario
+
+    scenario = validate_scenario(walkout_scenario())
+    first, cached = calibration.cached_scene_mapping(scenario, None, 8, 2, 5, tmp_path)
+    assert not cached and len(list(tmp_path.glob("*.npz"))) == 1
+
+    def no_calibration(*args, **kwargs):
+        raise AssertionError("calibrated again")
+
+    monkeypatch.setattr(calibration, "simulate_calibration", no_calibration)
+    again, cached = calibration.cached_scene_mapping(scenario, None, 8, 2, 5, tmp_path)
+    assert cached and np.array_equal(again.lmat, first.lmat)
+    other = copy.deepcopy(scenario)
+    other["camera"]["hfov_deg"] = 70.0
+    with pytest.raises(AssertionError, match="calibrated again"):
+        calibration.cached_scene_mapping(other, None, 8, 2, 5, tmp_path)

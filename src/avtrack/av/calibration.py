@@ -321,3 +321,82 @@ def scene_setup(
         np.asarray(scenario["array"]["position"]), scenario["array"]["yaw_deg"]
     )
     return room, scene_array(scenario, scenario_path), pose, scene_camera(scenario)
+
+
+def mapping_cache_dir() -> Path:
+    """Where trained scene mappings are kept: ``$AVTRACK_CACHE/mappings``, else
+    ``$XDG_CACHE_HOME/avtrack/mappings``, else ``~/.cache/avtrack/mappings``."""
+    import os
+
+    root = os.environ.get("AVTRACK_CACHE")
+    if root:
+        return Path(root) / "mappings"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "avtrack" / "mappings"
+
+
+def geometry_key(
+    scenario: dict, n_positions: int, n_components: int, max_iter: int,
+    array: MicArray | None = None,
+) -> str:
+    """A hash of everything a scene mapping depends on: the room, array (its microphone
+    positions and kind when ``array`` is given: a JSON array file may change under one name),
+    camera and their poses, and the calibration and training settings (not the people, speech
+    or noise)."""
+    import hashlib
+    import json
+
+    from avtrack import __version__
+
+    spec = {
+        "room": scenario["room"],
+        "array": scenario["array"],
+        "camera": scenario["camera"],
+        "fs": scenario.get("fs"),
+        "fps": scenario.get("fps"),
+        "n_positions": n_positions,
+        "n_components": n_components,
+        "max_iter": max_iter,
+        "version": __version__,
+        "mics": None if array is None else [array.kind, np.asarray(array.positions).tolist()],
+    }
+    text = json.dumps(spec, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:24]
+
+
+def cached_scene_mapping(
+    scenario: dict,
+    scenario_path: str | Path | None,
+    n_positions: int = 120,
+    n_components: int = 8,
+    max_iter: int = 50,
+    cache_dir: str | Path | None = None,
+    meta: dict | None = None,
+) -> tuple[AudioImageMapping, bool]:
+    """The audio-to-image mapping of a scene's geometry: simulated calibration and GLLiM
+    training (thesis §4.4) the first time, read from the cache afterwards.
+
+    Returns
+    -------
+    (AudioImageMapping, bool)
+        The mapping and whether it came from the cache.
+    """
+    from avtrack.av.gllim import load_mapping, save_mapping
+    from avtrack.errors import InputError
+
+    setup = scene_setup(scenario, scenario_path)
+    folder = Path(cache_dir) if cache_dir is not None else mapping_cache_dir()
+    key = geometry_key(scenario, n_positions, n_components, max_iter, setup[1])
+    path = folder / f"{key}.npz"
+    if path.is_file():
+        try:
+            return load_mapping(path), True
+        except InputError:
+            pass  # a damaged cache entry: train again and replace it
+    calib = simulate_calibration(*setup, n_positions=n_positions, rng=0)
+    mapping = train_mapping(calib, n_components, max_iter=max_iter, meta=meta)
+    try:
+        save_mapping(path, mapping)
+    except OSError:
+        pass  # a read-only cache costs time, not results
+    return mapping, False

@@ -153,8 +153,10 @@ def load_vavit_config(path: Path | None, threshold: float | None):
 
 
 def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = False):
-    """Calibrate the scene's room with a simulated loudspeaker and train the mapping."""
-    from avtrack.av.calibration import scene_setup, simulate_calibration, train_mapping
+    """The scene geometry's audio-to-image mapping: calibrated with a simulated loudspeaker
+    and trained the first time, then read from the cache
+    (:func:`avtrack.av.calibration.cached_scene_mapping`)."""
+    from avtrack.av.calibration import cached_scene_mapping, mapping_cache_dir
 
     if scene.scenario is None:
         raise InputError(
@@ -162,17 +164,19 @@ def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = Fa
             scene.path,
         )
     t0 = time.perf_counter()
-    setup = scene_setup(scene.scenario, scene.path / "scene.yaml")
-    with progress.activity(f"calibrating ({n_positions} loudspeaker positions)", quiet):
-        calib = simulate_calibration(*setup, n_positions=n_positions, rng=0)
-    with progress.activity("training the audio-to-image mapping", quiet):
-        mapping = train_mapping(calib, 8, max_iter=50, meta={"scene": scene.path.name})
-    if verbose:
-        print(
-            f"trained the audio-to-image mapping on {len(calib)} calibration frames "
-            f"({time.perf_counter() - t0:.1f} s)",
-            file=sys.stderr,
+    with progress.activity(
+        f"audio-to-image mapping (calibration with {n_positions} loudspeaker positions and "
+        f"training, unless cached)", quiet
+    ):
+        mapping, cached = cached_scene_mapping(
+            scene.scenario, scene.path / "scene.yaml", n_positions,
+            meta={"scene": scene.path.name},
         )
+    if verbose:
+        how = (f"read from the cache ({mapping_cache_dir()})" if cached
+               else "trained on a simulated calibration and cached")
+        print(f"audio-to-image mapping {how} ({time.perf_counter() - t0:.1f} s)",
+              file=sys.stderr)
     return mapping
 
 
