@@ -30,6 +30,7 @@ Example
 from __future__ import annotations
 
 import contextlib
+import itertools
 import math
 import os
 import sys
@@ -473,8 +474,7 @@ class _Renderer:
         self.person_rows = None
         if persons is not None:
             bounds = np.searchsorted(persons.frames, np.arange(1, n_frames + 2))
-            self.person_rows = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:],
-                                                            strict=True)]
+            self.person_rows = [slice(int(a), int(b)) for a, b in itertools.pairwise(bounds)]
         self.gt_rows = None if gt is None else gt.frame_slices(n_frames)
         self.legend = _legend(self.colours, gt is not None, self.lay, cv2) if legend else None
 
@@ -545,7 +545,7 @@ class _Renderer:
             text = f"{pid} {p.azimuth_deg[k]:+.0f} deg"
             r = lay.bubble
             if np.isfinite(x) and np.isfinite(y):
-                cx, cy = int(round(x)), int(round(y))
+                cx, cy = round(float(x)), round(float(y))
                 cv2.circle(img, (cx, cy), 2 * r, colour, lay.thick, cv2.LINE_AA)
                 tx, ty = cx + 2 * r + lay.pad, cy
             else:
@@ -863,9 +863,9 @@ def render_scene_video(
     """
     import json
 
+    from avtrack.av.pipeline import PersonsResult
     from avtrack.errors import InputError
     from avtrack.io.mot import read_mot
-    from avtrack.av.pipeline import PersonsResult
     from avtrack.tracking.vavit import AVSceneResult, SceneInputs, load_scene
 
     if not isinstance(result, AVSceneResult | PersonsResult):
