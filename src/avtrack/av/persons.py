@@ -165,10 +165,10 @@ class PersonConfig:
     link_min_cosine: float = 0.3
     reid_min_cosine: float = 0.8
     reid_min_unseen: int = 10
-    velocity_decay: float = 0.9
+    velocity_decay: float = 0.95
     lost_frames: int = 5
     exclusion_s: float = 1.0
-    exclusion_margin_deg: float = 2.0
+    exclusion_margin_deg: float = 6.0
     lost_noise_deg: float = 3.0
     lost_max_std_deg: float = 25.0
     death_s: float = 15.0
