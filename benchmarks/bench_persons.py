@@ -50,6 +50,7 @@ from avtrack.metrics.persons import (  # noqa: E402
     OffscreenScore,
     identity_on_return,
     offscreen_direction_error,
+    truth_per_frame,
 )
 from avtrack.simulate.library import named_scenario  # noqa: E402
 from avtrack.simulate.scenario import validate_scenario  # noqa: E402
@@ -69,18 +70,7 @@ def scene_dir(work: Path, kind: str, seed: int, duration: float) -> Path:
 
 def gt_directions(d: Path, gt, fps: float, n_frames: int, fov: tuple[float, float]):
     """Ground-truth person azimuth per video frame and whether the camera sees the person."""
-    doa = read_doa_csv(d / "gt" / "doa.csv")
-    vf = np.floor(doa.time_s * fps + 0.5).astype(np.int64) + 1
-    _, first = np.unique(np.column_stack([vf, doa.ids]), axis=0, return_index=True)
-    sel = np.zeros(vf.shape[0], dtype=bool)
-    sel[first] = True
-    sel &= vf <= n_frames
-    frames, ids, az = vf[sel], doa.ids[sel], doa.azimuth_deg[sel]
-    centre = gt.boxes[:, 0] + 0.5 * gt.boxes[:, 2]
-    seen = {(int(f), int(i)) for f, i, c in zip(gt.frames, gt.ids, centre, strict=True)
-            if fov[0] <= c <= fov[1]}
-    in_view = np.array([(int(f), int(i)) in seen for f, i in zip(frames, ids, strict=True)])
-    return frames, ids, az, in_view
+    return truth_per_frame(read_doa_csv(d / "gt" / "doa.csv"), gt, fps, n_frames, fov)
 
 
 def run_scene(d: Path, fov_fraction: float) -> dict:

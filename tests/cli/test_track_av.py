@@ -132,3 +132,22 @@ def test_track_av_direction_model_keeps_the_person_out_of_the_image(main, tmp_pa
     turns = read_rttm(out / "speech.rttm")
     speakers = {t.speaker for t in turns}
     assert speakers == {f"P{seen_id}", f"P{others.pop()}"}
+
+
+def test_eval_persons_scores_the_out_of_view_directions(main, tmp_path, capsys):
+    import json
+
+    scene_dir = out_of_image()
+    out = tmp_path / "dir"
+    assert main(["track-av", str(scene_dir), "-o", str(out), "-q"]) == 0
+    js = tmp_path / "s.json"
+    assert main(["eval", "persons", str(scene_dir), str(out / "persons.csv"), "--json",
+                 str(js)]) == 0
+    assert "azimuth MAE" in capsys.readouterr().out
+    scores = json.loads(js.read_text())["scores"]
+    # nao4 free-field DP-RTF peaks lean towards +-90 deg for talkers at +-70..75 deg
+    assert scores["offscreen_mae_deg"] < 15.0 and scores["coverage"] > 0.8
+    assert scores["offscreen_person_frames"] > 400  # person 2 all along, person 1 away
+    # bad input: one line, exit 2
+    assert main(["eval", "persons", str(scene_dir), str(scene_dir / "gt" / "doa.csv")]) == 2
+    assert "header must be" in capsys.readouterr().err

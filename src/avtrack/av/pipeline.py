@@ -25,6 +25,7 @@ from avtrack.av.diarization import speaking_segments
 from avtrack.av.geometry import CameraGeometry
 from avtrack.av.persons import PersonConfig, PersonTracker
 from avtrack.io.mot import MOTData
+from avtrack.io.persons import PERSONS_HEADER, PersonsTable
 from avtrack.io.rttm import RTTMSegment
 from avtrack.localize.grid import DirectionGrid
 from avtrack.metrics.mot import box_iou
@@ -32,60 +33,6 @@ from avtrack.tracking.ovbt import OVBTConfig, track_mot
 
 #: Peaks of a frame-mean DP-RTF + EG heat map below this weight are not observations.
 AUDIO_PEAK_FLOOR = 0.05
-
-#: Header of ``persons.csv``.
-PERSONS_HEADER = "frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking"
-
-
-@dataclass(frozen=True)
-class PersonsTable:
-    """Every tracked person at every frame (the rows of ``persons.csv``).
-
-    Attributes
-    ----------
-    frames : ndarray (K,) int
-        1-based video frame (time ``(frame - 1) / fps``).
-    ids : ndarray (K,) int
-    azimuth_deg, elevation_deg : ndarray (K,)
-    pixels : ndarray (K, 2)
-        Image position; NaN when the direction is outside the image.
-    in_view : ndarray (K,) bool
-    speaking : ndarray (K,) float
-        Speaking probability.
-    fps : float
-    side : ndarray (K,) int, optional
-        -1 / +1: left / right of the camera's optical axis (for drawing persons out of the
-        image; not written to the CSV).
-    """
-
-    frames: np.ndarray
-    ids: np.ndarray
-    azimuth_deg: np.ndarray
-    elevation_deg: np.ndarray
-    pixels: np.ndarray
-    in_view: np.ndarray
-    speaking: np.ndarray
-    fps: float
-    side: np.ndarray | None = None
-
-    def __len__(self) -> int:
-        return int(self.frames.shape[0])
-
-    def to_csv(self) -> str:
-        """The table as ``persons.csv`` text (header :data:`PERSONS_HEADER`)."""
-        lines = [PERSONS_HEADER]
-        for f, i, a, e, (x, y), v, s in zip(
-            self.frames.tolist(), self.ids.tolist(), self.azimuth_deg.tolist(),
-            self.elevation_deg.tolist(), self.pixels.tolist(), self.in_view.tolist(),
-            self.speaking.tolist(), strict=True,
-        ):
-            xs = "" if not np.isfinite(x) else f"{x:.1f}"
-            ys = "" if not np.isfinite(y) else f"{y:.1f}"
-            lines.append(
-                f"{f},{(f - 1) / self.fps:.4f},{i},{a:.2f},{e:.2f},{xs},{ys},{int(v)},{s:.3f}"
-            )
-        return "\n".join(lines) + "\n"
-
 
 @dataclass(frozen=True)
 class PersonsResult:

@@ -2,7 +2,8 @@
 
 Tasks (each its own sub-command): ``mot`` — MOTChallenge visual tracking (MOTA, IDF1, HOTA ...);
 ``doa`` — frame-wise speaker localization (thesis §5.5.1: MD and FA rates, MAE); ``der`` —
-diarization error rate of an RTTM file.
+diarization error rate of an RTTM file; ``persons`` — direction accuracy of ``persons.csv``
+while persons are out of the camera's view.
 """
 
 from __future__ import annotations
@@ -23,6 +24,13 @@ examples:
   avtrack eval doa scene/gt/doa.csv doa.csv --success-deg 10
   avtrack eval der scene/gt/speech.rttm out/speech.rttm
   avtrack eval mot --help
+"""
+
+PERSONS_EXAMPLES = """\
+examples:
+  avtrack track-av scenes/walkout-1 -o out/walkout-1
+  avtrack eval persons scenes/walkout-1 out/walkout-1/persons.csv
+  avtrack eval persons scenes/meeting-1 out/pfov/persons.csv --fov-fraction 0.4
 """
 
 DER_EXAMPLES = """\
@@ -163,6 +171,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     der.set_defaults(func=run_der)
     add_config_option(der)
 
+    per = tasks.add_parser(
+        "persons",
+        help="direction accuracy of persons.csv while persons are out of the camera's view",
+        description=(
+            "Score the directions of persons.csv (avtrack track-av) against a scene's ground\n"
+            "truth (SCENE_DIR/gt/doa.csv, SCENE_DIR/gt/gt.txt) for the persons the camera does\n"
+            "not see: at every frame, ground-truth persons and tracked persons are matched one\n"
+            "to one on azimuth (matches beyond --gate refused); the mean absolute azimuth error\n"
+            "of the out-of-view persons (lower is better) and the share of their frames matched\n"
+            "(coverage, higher is better)."
+        ),
+        epilog=PERSONS_EXAMPLES,
+        formatter_class=HelpFormatter,
+    )
+    per.add_argument("scene", type=Path, metavar="SCENE_DIR", help="scene directory")
+    per.add_argument("persons", type=Path, metavar="PERSONS.csv", help="track-av output")
+    per.add_argument("--fov-fraction", type=float, default=1.0, metavar="F",
+                     help="the camera saw the central fraction F of the image width, as given "
+                     "to track-av (default 1)")
+    per.add_argument("--gate", type=float, default=30.0, metavar="DEG",
+                     help="largest azimuth difference of a match (default %(default)s)")
+    per.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
+    add_common(per)
+    per.set_defaults(func=run_persons)
+    add_config_option(per)
+
 
 DOA_EXAMPLES = """\
 examples:
@@ -279,4 +313,47 @@ def run_der(args: argparse.Namespace) -> int:
               f"({c.total:.1f} s of reference speech; speakers: "
               f"{scores['hypothesis_speakers']} found, {scores['reference_speakers']} in the "
               f"reference)")
+    return 0
+
+
+def run_persons(args: argparse.Namespace) -> int:
+    from avtrack.io.doa import read_doa_csv
+    from avtrack.io.persons import read_persons_csv
+    from avtrack.metrics.persons import offscreen_direction_error, truth_per_frame
+    from avtrack.tracking.vavit import fov_strip, load_scene
+
+    if not 0 < args.fov_fraction <= 1:
+        raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
+    if not 0 < args.gate <= 180:
+        raise InputError(f"--gate must be in (0, 180] degrees, got {args.gate}")
+    if args.json is not None and args.json.is_dir():
+        raise InputError("--json must name a file, got a directory", args.json)
+    scene = load_scene(args.scene)
+    truth = read_doa_csv(args.scene / "gt" / "doa.csv")
+    gt = read_mot(args.scene / "gt" / "gt.txt", kind="gt")
+    persons = read_persons_csv(args.persons, fps=scene.fps)
+    if len(persons) and int(persons.frames.max()) > scene.n_frames:
+        raise InputError(f"frame {int(persons.frames.max())} is past the scene's last frame "
+                         f"({scene.n_frames})", args.persons)
+    fov = fov_strip(scene.image_size[0], args.fov_fraction)
+    gf, gi, ga, gv = truth_per_frame(truth, gt, scene.fps, scene.n_frames, fov)
+    s = offscreen_direction_error(gf, gi, ga, gv, persons.frames, persons.azimuth_deg,
+                                  gate_deg=args.gate)
+    scores = {"offscreen_mae_deg": s.mae_deg, "coverage": s.coverage,
+              "offscreen_person_frames": s.n_frames, "matched": s.n_matched}
+    if args.json is not None:
+        with atomic_write(args.json) as fh:
+            json.dump({"scene": str(args.scene), "persons": str(args.persons),
+                       "fov_fraction": args.fov_fraction, "gate_deg": args.gate,
+                       "scores": {k: (None if isinstance(v, float) and v != v else v)
+                                  for k, v in scores.items()}}, fh, indent=2)
+            fh.write("\n")
+    if not args.quiet:
+        if s.n_frames == 0:
+            print(f"{args.scene}: every person is in the camera's view at every frame; nothing "
+                  f"to score out of view")
+        else:
+            print(f"persons out of view in {args.scene}: azimuth MAE {s.mae_deg:.2f} deg (lower "
+                  f"is better) over {s.n_matched} of {s.n_frames} person-frames matched "
+                  f"(coverage {100 * s.coverage:.1f} %, higher is better; gate {args.gate:g} deg)")
     return 0

@@ -59,6 +59,43 @@ class OffscreenScore:
                               n, err, m)
 
 
+def truth_per_frame(
+    doa, gt: MOTData, fps: float, n_frames: int, fov: tuple[float, float] | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Ground-truth directions per video frame and whether the camera sees each person.
+
+    Parameters
+    ----------
+    doa : DOATable
+        A scene's ``gt/doa.csv`` (rows every 8 ms, frame 0 at t = 0).
+    gt : MOTData
+        Its ``gt/gt.txt`` (boxes of the persons in the image).
+    fps : float
+    n_frames : int
+    fov : (float, float), optional
+        Pixel columns the camera sees (default: all): a person is in view at a frame when their
+        box's centre lies in them.
+
+    Returns
+    -------
+    frames, ids, azimuth_deg, in_view : ndarray (G,)
+        One row per person per video frame (1-based frames), the first ``doa`` row of the frame.
+    """
+    vf = np.floor(np.asarray(doa.time_s) * fps + 0.5).astype(np.int64) + 1
+    _, first = np.unique(np.column_stack([vf, doa.ids]), axis=0, return_index=True)
+    sel = np.zeros(vf.shape[0], dtype=bool)
+    sel[first] = True
+    sel &= vf <= n_frames
+    frames, ids, az = vf[sel], np.asarray(doa.ids)[sel], np.asarray(doa.azimuth_deg)[sel]
+    centre = gt.boxes[:, 0] + 0.5 * gt.boxes[:, 2]
+    lo, hi = (-np.inf, np.inf) if fov is None else fov
+    seen = {(int(f), int(i)) for f, i, c in zip(gt.frames, gt.ids, centre, strict=True)
+            if lo <= c <= hi}
+    in_view = np.array([(int(f), int(i)) in seen for f, i in zip(frames, ids, strict=True)],
+                       dtype=bool)
+    return frames, ids, az, in_view
+
+
 def offscreen_direction_error(
     gt_frames: np.ndarray,
     gt_ids: np.ndarray,
