@@ -25,7 +25,7 @@ from avtrack.av.diarization import speaking_segments
 from avtrack.av.geometry import CameraGeometry
 from avtrack.av.persons import PersonConfig, PersonTracker
 from avtrack.io.mot import MOTData
-from avtrack.io.persons import PERSONS_HEADER, PersonsTable
+from avtrack.io.persons import PersonsTable
 from avtrack.io.rttm import RTTMSegment
 from avtrack.localize.grid import DirectionGrid
 from avtrack.metrics.mot import box_iou
