@@ -36,3 +36,13 @@ def test_identity_on_return():
     r = identity_on_return(gt, changed)
     assert (r.n_returns, r.n_kept) == (1, 0)
     assert identity_on_return(gt, kept, min_absence=50).n_returns == 0
+
+
+def test_offscreen_error_scores_only_the_masked_rows():
+    # both persons out of view; only person 2's row is scored, person 1 still takes part in
+    # the matching (so person 2 cannot take person 1's hypothesis)
+    args = (np.array([1, 1]), np.array([1, 2]), np.array([0.0, 20.0]), np.array([False, False]),
+            np.array([1, 1]), np.array([1.0, 25.0]))
+    s = offscreen_direction_error(*args, gt_mask=np.array([False, True]))
+    assert s.mae_deg == pytest.approx(5.0) and s.n_frames == 1
+    assert offscreen_direction_error(*args).mae_deg == pytest.approx(3.0)

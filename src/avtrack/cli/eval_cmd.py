@@ -336,7 +336,7 @@ def run_persons(args: argparse.Namespace) -> int:
         raise InputError(f"frame {int(persons.frames.max())} is past the scene's last frame "
                          f"({scene.n_frames})", args.persons)
     fov = fov_strip(scene.image_size[0], args.fov_fraction)
-    gf, gi, ga, gv = truth_per_frame(truth, gt, scene.fps, scene.n_frames, fov)
+    gf, gi, ga, gv, _ = truth_per_frame(truth, gt, scene.fps, scene.n_frames, fov)
     s = offscreen_direction_error(gf, gi, ga, gv, persons.frames, persons.azimuth_deg,
                                   gate_deg=args.gate)
     scores = {"offscreen_mae_deg": s.mae_deg, "coverage": s.coverage,

@@ -61,7 +61,7 @@ class OffscreenScore:
 
 def truth_per_frame(
     doa, gt: MOTData, fps: float, n_frames: int, fov: tuple[float, float] | None = None
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Ground-truth directions per video frame and whether the camera sees each person.
 
     Parameters
@@ -78,8 +78,9 @@ def truth_per_frame(
 
     Returns
     -------
-    frames, ids, azimuth_deg, in_view : ndarray (G,)
-        One row per person per video frame (1-based frames), the first ``doa`` row of the frame.
+    frames, ids, azimuth_deg, in_view, active : ndarray (G,)
+        One row per person per video frame (1-based frames), the first ``doa`` row of the
+        frame; ``active``: the person speaks.
     """
     vf = np.floor(np.asarray(doa.time_s) * fps + 0.5).astype(np.int64) + 1
     _, first = np.unique(np.column_stack([vf, doa.ids]), axis=0, return_index=True)
@@ -87,13 +88,14 @@ def truth_per_frame(
     sel[first] = True
     sel &= vf <= n_frames
     frames, ids, az = vf[sel], np.asarray(doa.ids)[sel], np.asarray(doa.azimuth_deg)[sel]
+    active = np.asarray(doa.active, dtype=bool)[sel]
     centre = gt.boxes[:, 0] + 0.5 * gt.boxes[:, 2]
     lo, hi = (-np.inf, np.inf) if fov is None else fov
     seen = {(int(f), int(i)) for f, i, c in zip(gt.frames, gt.ids, centre, strict=True)
             if lo <= c <= hi}
     in_view = np.array([(int(f), int(i)) in seen for f, i in zip(frames, ids, strict=True)],
                        dtype=bool)
-    return frames, ids, az, in_view
+    return frames, ids, az, in_view, active
 
 
 def offscreen_direction_error(
@@ -104,6 +106,7 @@ def offscreen_direction_error(
     hyp_frames: np.ndarray,
     hyp_azimuth: np.ndarray,
     gate_deg: float = 30.0,
+    gt_mask: np.ndarray | None = None,
 ) -> OffscreenScore:
     """Azimuth error of the tracked persons for ground-truth persons out of view.
 
@@ -115,10 +118,15 @@ def offscreen_direction_error(
     hyp_frames, hyp_azimuth : ndarray (H,)
         The rows of ``persons.csv``: frame and azimuth of every tracked person.
     gate_deg : float
+    gt_mask : ndarray (G,) bool, optional
+        Score only these ground-truth rows (e.g. the frames where the person speaks); the
+        others still take part in the matching.
     """
     gf = np.asarray(gt_frames, dtype=np.int64)
     ga = np.asarray(gt_azimuth, dtype=float)
     gv = np.asarray(gt_in_view, dtype=bool)
+    if gt_mask is not None:  # rows not scored count as in view (matched, not scored)
+        gv = gv | ~np.asarray(gt_mask, dtype=bool)
     hf = np.asarray(hyp_frames, dtype=np.int64)
     ha = np.asarray(hyp_azimuth, dtype=float)
     if not (gf.shape == ga.shape == gv.shape == np.shape(gt_ids)):
