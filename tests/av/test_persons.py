@@ -9,8 +9,9 @@ from hypothesis import strategies as st
 
 from avtrack.av.geometry import CameraGeometry, wrap_deg
 from avtrack.av.persons import PersonConfig, PersonTracker
-from avtrack.av.pipeline import PERSONS_HEADER, audio_peaks, track_persons
+from avtrack.av.pipeline import audio_peaks, track_persons
 from avtrack.io.mot import MOTData
+from avtrack.io.persons import PERSONS_HEADER
 from avtrack.localize.grid import DirectionGrid
 from avtrack.simulate.camera import PinholeCamera
 
