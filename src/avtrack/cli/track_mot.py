@@ -23,6 +23,10 @@ examples:
   # or from the detections' extent)
   avtrack track-mot MOT17-02/det/det.txt -o results/MOT17-02.txt
 
+  # appearance from the real frames: hue-saturation histograms of every detection box
+  # (thesis eq. 3.5), image size and length from the video
+  avtrack track-mot PETS09-S2L1/det/det.txt -o res.txt --video PETS09-S2L1/PETS09-S2L1.avi
+
   # explicit image size, appearance embeddings (one row per detection row), own parameters
   avtrack track-mot det.txt -o res.txt --image-size 640x480 --appearance emb.npy \\
       --config ovbt.yaml
@@ -51,8 +55,13 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument("--image-size", metavar="WxH",
                    help="image size in pixels (default: seqinfo.ini next to det/, else the "
                         "detections' extent)")
-    p.add_argument("--appearance", type=Path, metavar="APP.npy",
-                   help="appearance descriptors, one row per detection row (.npy, 2-D)")
+    app = p.add_mutually_exclusive_group()
+    app.add_argument("--appearance", type=Path, metavar="APP.npy",
+                     help="appearance descriptors, one row per detection row (.npy, 2-D)")
+    app.add_argument("--video", type=Path, metavar="FILE",
+                     help="the sequence's video (mp4, avi, ...; frame k is MOT frame k): "
+                     "colour histograms of the detection boxes become the appearance (thesis "
+                     "eq. 3.5, Bhattacharyya likelihood); image size and length from the video")
     p.add_argument("--config", type=Path, metavar="FILE.yaml",
                    help="tracker parameters (OVBTConfig fields)")
     p.add_argument("--min-score", type=float, metavar="S",
@@ -83,13 +92,46 @@ def load_appearance(path: Path, n_rows: int) -> np.ndarray:
     return app.astype(float)
 
 
+def check_against_video(dets, video, det_path: Path) -> None:
+    """Detections that cannot belong to the video: frames past its last one, boxes entirely
+    outside its image."""
+    if len(dets) == 0:
+        return
+    last = int(dets.frames.max())
+    if last > video.n_frames:
+        raise InputError(f"detections reach frame {last}, the video {video.path} has "
+                         f"{video.n_frames} frames", det_path)
+    w, h = video.image_size
+    b = dets.boxes
+    outside = (b[:, 0] >= w) | (b[:, 1] >= h) | (b[:, 0] + b[:, 2] <= 0) | (b[:, 1] + b[:, 3] <= 0)
+    if outside.any():
+        k = int(np.flatnonzero(outside)[0])
+        raise InputError(f"detection of frame {int(dets.frames[k])} lies entirely outside the "
+                         f"video's {w}x{h} image (box {b[k].round(1).tolist()})", det_path)
+
+
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.config, OVBTConfig, overrides={"min_score": args.min_score})
     dets = read_mot(args.detections, kind="det")
     appearance = None if args.appearance is None else load_appearance(args.appearance,
                                                                       len(dets))
     n_frames = None
-    if args.image_size:
+    video = None
+    if args.video is not None:
+        from avtrack.io.video import probe_video
+
+        video = probe_video(args.video)
+        check_against_video(dets, video, args.detections)
+        if config.appearance != "bhattacharyya":
+            raise InputError("--video gives colour histograms: the config's appearance must be "
+                             f"'bhattacharyya', got {config.appearance!r}", args.config)
+    if video is not None:
+        image_size = video.image_size
+        n_frames = video.n_frames
+        if args.image_size and parse_image_size(args.image_size) != image_size:
+            raise InputError(f"--image-size {args.image_size} differs from the video's "
+                             f"{image_size[0]}x{image_size[1]}", args.video)
+    elif args.image_size:
         image_size = parse_image_size(args.image_size)
     else:
         seqinfo = find_seqinfo(args.detections)
@@ -104,6 +146,13 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
     t0 = time.perf_counter()
     n = max(dets.n_frames, n_frames or 0)
+    if video is not None:
+        from avtrack.io.video import iter_frames
+        from avtrack.models.histograms import detection_histograms
+
+        with progress.activity(f"colour histograms of {len(dets)} boxes in {n} frames",
+                               args.quiet):
+            appearance = detection_histograms(iter_frames(video.path, video), dets, n)
     try:
         with progress.activity(f"tracking {n} frames", args.quiet):
             res = track_mot(dets, appearance, config, image_size, n_frames)

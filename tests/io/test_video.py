@@ -1,0 +1,111 @@
+"""Video decoding (OpenCV), colour histograms from pixels, track-mot --video."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avtrack.errors import InputError
+from avtrack.io.mot import MOTData, write_mot
+from avtrack.io.video import iter_frames, probe_video
+from avtrack.models.histograms import box_histograms, detection_histograms
+
+
+def write_video(path, n_frames=12, size=(96, 64), fps=10.0):
+    """A small MJPG AVI: a red square moving right on grey; returns the frames written."""
+    import cv2
+
+    w, h = size
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), fps, (w, h))
+    assert writer.isOpened()
+    frames = []
+    for k in range(n_frames):
+        img = np.full((h, w, 3), 128, np.uint8)
+        img[20:40, 5 + 4 * k : 25 + 4 * k] = (0, 0, 255)  # BGR red
+        writer.write(img)
+        frames.append(img)
+    writer.release()
+    return frames
+
+
+def test_probe_and_decode_a_small_video(tmp_path):
+    path = tmp_path / "v.avi"
+    written = write_video(path)
+    info = probe_video(path)
+    assert (info.n_frames, info.width, info.height) == (12, 96, 64)
+    assert info.fps == pytest.approx(10.0)
+    frames = list(iter_frames(path, info))
+    assert len(frames) == 12 and frames[0].shape == (64, 96, 3) and frames[0].dtype == np.uint8
+    # MJPG is lossy: the red square is still where it was drawn
+    assert np.abs(frames[3].astype(int) - written[3].astype(int)).mean() < 6
+
+
+def test_bad_videos_are_named(tmp_path):
+    with pytest.raises(InputError, match="video file not found"):
+        probe_video(tmp_path / "none.mp4")
+    (tmp_path / "text.mp4").write_text("not a video\n")
+    with pytest.raises(InputError, match="cannot open the video"):
+        probe_video(tmp_path / "text.mp4")
+    path = tmp_path / "v.avi"
+    write_video(path, n_frames=30)
+    data = path.read_bytes()
+    cut = tmp_path / "cut.avi"
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError) as err:
+        info = probe_video(cut)
+        list(iter_frames(cut, info))
+    assert "cut.avi" in str(err.value)
+
+
+def test_box_histograms_hand_case():
+    img = np.full((10, 10, 3), 0, np.uint8)
+    img[:, :5] = (0, 0, 255)  # pure red: hue 0, saturation 255
+    img[:, 5:] = (255, 0, 0)  # pure blue: hue 120 (of 180), saturation 255
+    h = box_histograms(img, np.array([[0, 0, 5, 10], [0, 0, 10, 10], [50, 50, 5, 5]]), (6, 4))
+    red, half, outside = h.reshape(3, 6, 4)
+    assert red[0, 3] == pytest.approx(1.0)
+    assert half[0, 3] == pytest.approx(0.5) and half[4, 3] == pytest.approx(0.5)
+    assert np.allclose(outside, 1 / 24)  # no pixel inside: uniform
+
+
+def test_detection_histograms_follow_the_frames(tmp_path):
+    path = tmp_path / "v.avi"
+    write_video(path)
+    dets = MOTData(np.array([1, 5, 5]), -np.ones(3), np.array(
+        [[5.0, 20, 20, 20], [21.0, 20, 20, 20], [60.0, 45, 20, 15]]), np.ones(3))
+    h = detection_histograms(iter_frames(path), dets, 12)
+    assert h.shape == (3, 64) and np.allclose(h.sum(axis=1), 1.0)
+    assert h[0].argmax() == h[1].argmax() == 7  # red, saturated: hue bin 0, top saturation bin
+    assert h[2, 7] < 0.05  # the grey background
+
+
+def test_track_mot_with_video(tmp_path, capsys):
+    from avtrack.cli.main import main
+
+    path = tmp_path / "v.avi"
+    write_video(path)
+    boxes = np.array([[5.0 + 4 * k, 20, 20, 20] for k in range(12)])
+    det = tmp_path / "det.txt"
+    write_mot(det, MOTData(np.arange(1, 13), -np.ones(12), boxes, np.ones(12)))
+    out = tmp_path / "res.txt"
+    assert main(["track-mot", str(det), "-o", str(out), "--video", str(path), "-q"]) == 0
+    assert len(out.read_text().splitlines()) >= 10
+    # detections past the video's end, or outside its image: one line, no output
+    bad = tmp_path / "bad.txt"
+    write_mot(bad, MOTData(np.array([1, 20]), -np.ones(2), boxes[:2], np.ones(2)))
+    assert main(["track-mot", str(bad), "-o", str(tmp_path / "r2.txt"), "--video",
+                 str(path)]) == 2
+    assert "reach frame 20" in capsys.readouterr().err
+    write_mot(bad, MOTData(np.array([1]), -np.ones(1), np.array([[500.0, 5, 10, 10]]),
+                           np.ones(1)))
+    assert main(["track-mot", str(bad), "-o", str(tmp_path / "r2.txt"), "--video",
+                 str(path)]) == 2
+    assert "entirely outside" in capsys.readouterr().err
+    assert not (tmp_path / "r2.txt").exists()
+
+
+def test_shared_real_videos(shared_data):
+    tud = probe_video(shared_data / "mot15" / "TUD-Campus" / "TUD-Campus.mp4")
+    assert (tud.n_frames, tud.width, tud.height) == (71, 640, 480)
+    first = next(iter_frames(tud.path, tud))
+    assert first.shape == (480, 640, 3) and first.std() > 10  # a real image, not blank
