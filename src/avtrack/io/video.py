@@ -69,7 +69,7 @@ def probe_video(path: str | Path) -> VideoInfo:
     path = Path(path)
     cap = _capture(path)
     try:
-        n = int(round(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
+        n = round(float(cap.get(cv2.CAP_PROP_FRAME_COUNT)))
         fps = float(cap.get(cv2.CAP_PROP_FPS))
         w = int(cap.get(cv2.CAP_PROP_FRAME_WIDTH))
         h = int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT))
