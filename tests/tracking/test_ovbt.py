@@ -134,3 +134,33 @@ def test_tud_campus_scores(shared_data):
     assert scores.IDF1 >= 60.6, scores
     assert scores.HOTA >= 53.0, scores
     assert scores.IDSW <= 3, scores
+
+
+def _gap_scene(colour_back):
+    """One person at x = 100, detected frames 1-20 and 41-60 (20 frames missed in between:
+    the target dies); histograms: red before, ``colour_back`` after."""
+    rows, app = [], []
+    red, blue = np.eye(8)[0] * 0.9 + 0.0125, np.eye(8)[5] * 0.9 + 0.0125
+    for f in list(range(1, 21)) + list(range(41, 61)):
+        rows.append((f, [100.0 + 0.5 * f, 200.0, 40.0, 90.0]))
+        app.append(red if f < 30 else (red if colour_back == "red" else blue))
+    from avtrack.io.mot import MOTData
+
+    dets = MOTData(np.array([r[0] for r in rows]), -np.ones(len(rows)),
+                   np.array([r[1] for r in rows]), np.ones(len(rows)))
+    return dets, np.array(app)
+
+
+def test_reidentification_gives_back_the_identity_of_a_lookalike():
+    dets, app = _gap_scene("red")
+    cfg = OVBTConfig(reid_log_ratio=0.2, reid_max_age=25, reid_max_distance=4.0,
+                     appearance_lambda=2.0)
+    res = track_mot(dets, app, cfg, (640, 480), 60)
+    assert np.unique(res.ids).tolist() == [1]
+    # off, or someone who looks different: a new identity
+    off = track_mot(dets, app, OVBTConfig(appearance_lambda=2.0), (640, 480), 60)
+    assert len(np.unique(off.ids)) == 2
+    dets, app = _gap_scene("blue")
+    assert len(np.unique(track_mot(dets, app, cfg, (640, 480), 60).ids)) == 2
+    with pytest.raises(ValueError, match="reid_log_ratio"):
+        OVBTConfig(reid_log_ratio=float("nan"))

@@ -83,16 +83,24 @@ class OVBTConfig:
     appearance: str = "bhattacharyya"  #: "bhattacharyya" (histograms) or "cosine" (embeddings)
     appearance_lambda: float = 10.0  #: λ of eq. 3.5 (or κ for "cosine")
     appearance_update: float = 0.1  #: reference-appearance update rate (0: birth appearance)
+    #: re-identification: a newborn whose appearance log-ratio (eq. 3.5) against a target that
+    #: died at most ``reid_max_age`` frames ago exceeds this, and whose box centre lies within
+    #: ``reid_max_distance`` box widths of where that target was, takes its identity (None: off)
+    reid_log_ratio: float | None = None
+    reid_max_age: int = 50
+    reid_max_distance: float = 3.0
 
     def __post_init__(self) -> None:
         positive = ("obs_std_pos", "obs_std_size", "dyn_std_pos", "dyn_std_size",
                     "dyn_std_vel", "max_state_std", "birth_max_overlap", "birth_velocity_std",
-                    "birth_gate", "visibility_lambda", "appearance_lambda")
+                    "birth_gate", "visibility_lambda", "appearance_lambda",
+                    "reid_max_distance")
         for name in positive:
             v = getattr(self, name)
             if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
                 raise ValueError(f"OVBTConfig.{name} must be a positive number, got {v!r}")
-        for name in ("n_iter", "birth_frames", "visibility_window", "death_frames"):
+        for name in ("n_iter", "birth_frames", "visibility_window", "death_frames",
+                     "reid_max_age"):
             v = getattr(self, name)
             if not (isinstance(v, int) and v >= 1):
                 raise ValueError(f"OVBTConfig.{name} must be an integer >= 1, got {v!r}")
@@ -105,6 +113,11 @@ class OVBTConfig:
         if not 0 <= self.appearance_update <= 1:
             raise ValueError(f"OVBTConfig.appearance_update must be in [0, 1], "
                              f"got {self.appearance_update!r}")
+        if self.reid_log_ratio is not None and not (
+            isinstance(self.reid_log_ratio, int | float) and np.isfinite(self.reid_log_ratio)
+        ):
+            raise ValueError(f"OVBTConfig.reid_log_ratio must be a finite number or None, got "
+                             f"{self.reid_log_ratio!r}")
 
     @classmethod
     def from_dict(cls, values: dict) -> OVBTConfig:
@@ -169,6 +182,8 @@ class OVBTracker:
         self._pool: deque[BoxObservations] = deque(maxlen=cfg.birth_frames + 1)
         self._next_id = 1
         self._has_appearance: bool | None = None
+        # targets ended lately, for re-identification: id -> (frame, (x, y, w), reference)
+        self._ended: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         self.frame = 0
 
     def _dyn_cov(self, mu: np.ndarray) -> np.ndarray:
@@ -299,6 +314,11 @@ class OVBTracker:
         return eng.ids[visible], eng.mu[visible, :BOX_DIM], self.p_visible[visible]
 
     def _remove(self, keep: np.ndarray) -> None:
+        refs = self.model.references
+        if self.config.reid_log_ratio is not None and refs is not None:
+            for i in np.flatnonzero(~keep):
+                self._ended[int(self.engine.ids[i])] = (
+                    self.frame, self.engine.mu[i, :3].copy(), refs[i].copy())
         self.engine.remove_targets(keep)
         self.p_visible = self.p_visible[keep]
         self.invisible_run = self.invisible_run[keep]
@@ -320,6 +340,29 @@ class OVBTracker:
             inside = _intersection_over_first(cand_boxes, tgt_boxes).max(axis=1)
             cands = [c for c, o in zip(cands, inside, strict=True) if o <= cfg.birth_max_overlap]
         self._add_born(select_births(cands, cfg.birth_threshold))
+
+    def _reidentify(self, ids: np.ndarray, mu: np.ndarray, refs: np.ndarray) -> np.ndarray:
+        """Newborns that look like (eq. 3.5) and stand near a target ended lately take its id
+        (greedy, best log-ratio first)."""
+        cfg = self.config
+        self._ended = {k: v for k, v in self._ended.items()
+                       if self.frame - v[0] <= cfg.reid_max_age}
+        if not self._ended:
+            return ids
+        keys = list(self._ended)
+        old = np.stack([self._ended[k][2] for k in keys])
+        where = np.stack([self._ended[k][1] for k in keys])  # (x, y, w) when it ended
+        score = self._appearance.log_ratio(refs, old)  # (k_new, k_old)
+        dist = np.hypot(mu[:, None, 0] - where[None, :, 0], mu[:, None, 1] - where[None, :, 1])
+        score[dist > cfg.reid_max_distance * where[None, :, 2]] = -np.inf
+        ids = ids.copy()
+        while score.size and score.max() > cfg.reid_log_ratio:
+            i, j = np.unravel_index(int(np.argmax(score)), score.shape)
+            ids[i] = keys[j]
+            del self._ended[keys[j]]
+            score[i, :] = -np.inf
+            score[:, j] = -np.inf
+        return ids
 
     def _first_frame_birth(self) -> None:
         """Frame 1 has no history for eq. 3.30 to score, so each detection starts a target at
@@ -344,6 +387,8 @@ class OVBTracker:
         ids = np.arange(self._next_id, self._next_id + k)
         self._next_id += k
         mu, gamma, init = born_states(born, self._pool[-1].appearance)
+        if cfg.reid_log_ratio is not None and init is not None and self._ended:
+            ids = self._reidentify(ids, mu, init)
         # the box model gets the appearances; any other model of a subclass (VAVIT) none
         self.engine.add_targets(ids, mu, gamma, [init] + [None] * (len(self.engine.models) - 1))
         self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
