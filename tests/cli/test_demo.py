@@ -32,7 +32,7 @@ def test_demo_writes_scores_and_a_self_contained_report(tmp_path, capsys):
     assert 0 < scores["MOTA"] <= 100
     page = (out / "index.html").read_text()
     assert page.startswith("<!DOCTYPE html>") and page.rstrip().endswith("</html>")
-    assert len(re.findall(r"src='data:image/png;base64,", page)) == 3
+    assert len(re.findall(r"src='data:image/png;base64,", page)) == 4  # with the persons
     assert "http://" not in page and "https://" not in page  # nothing to fetch
     for name in ("tracks.txt", "speech.rttm", "scene/audio.wav", "scene/gt/gt.txt"):
         assert (out / name).is_file(), name
