@@ -34,6 +34,10 @@ examples:
   # (thesis eq. 3.5), image size and length from the video
   avtrack track-mot PETS09-S2L1/det/det.txt -o res.txt --video PETS09-S2L1/PETS09-S2L1.avi
 
+  # no detection file: detect people in the frames (OpenCV's HOG people detector, or your
+  # own detector as module:attribute), then track
+  avtrack track-mot -o res.txt --video TUD-Campus.mp4 --detector hog
+
   # explicit image size, appearance embeddings (one row per detection row), own parameters
   avtrack track-mot det.txt -o res.txt --image-size 640x480 --appearance emb.npy \\
       --config ovbt.yaml
@@ -56,7 +60,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "writes MOTChallenge results\n(frame,id,left,top,width,height,conf,-1,-1,-1)"
                      ", conf being the track's visibility probability."),
         epilog=EXAMPLES, formatter_class=HelpFormatter)
-    p.add_argument("detections", type=Path, metavar="DET.txt", help="MOTChallenge detections")
+    p.add_argument("detections", type=Path, metavar="DET.txt", nargs="?",
+                   help="MOTChallenge detections (omit to detect in --video's frames)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="RES.txt",
                    help="results file (written atomically)")
     p.add_argument("--image-size", metavar="WxH",
@@ -72,6 +77,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "lately (appearance_lambda 2, reid_log_ratio 0.2, reid_max_age 25, "
                      "reid_max_distance 4 unless --config says otherwise); image size and "
                      "length from the video")
+    p.add_argument("--detector", metavar="NAME",
+                   help="without DET.txt: detect people in --video's frames with a built-in "
+                   "detector (hog: OpenCV's HOG people detector, the default; haar-face) or "
+                   "your own as module:attribute (an object or factory with detect(frame) -> "
+                   "(boxes ltwh (M, 4), scores (M,)))")
     p.add_argument("--config", type=Path, metavar="FILE.yaml",
                    help="tracker parameters (OVBTConfig fields)")
     p.add_argument("--min-score", type=float, metavar="S",
@@ -102,6 +112,23 @@ def load_appearance(path: Path, n_rows: int) -> np.ndarray:
     return app.astype(float)
 
 
+def detect_in_video(video_path: Path, spec: str, quiet: bool):
+    """Detections of a detector (``--detector``) on every frame of a video."""
+    from avtrack.detect import detect_video, load_detector
+    from avtrack.io.video import iter_frames, probe_video
+
+    info = probe_video(video_path)
+    detector = load_detector(spec)
+    with progress.activity(f"detecting people in {info.n_frames} frames ({spec})", quiet):
+        try:
+            return detect_video(detector, iter_frames(info.path, info), info.n_frames)
+        except InputError:
+            raise
+        except Exception as exc:  # a plug-in's own failure, named as such
+            raise InputError(f"--detector {spec} failed: {type(exc).__name__}: {exc}",
+                             video_path) from None
+
+
 def check_against_video(dets, video, det_path: Path) -> None:
     """Detections that cannot belong to the video: frames past its last one, boxes entirely
     outside its image."""
@@ -125,7 +152,14 @@ def run(args: argparse.Namespace) -> int:
 
     base = replace(OVBTConfig(), **VIDEO_DEFAULTS) if args.video is not None else OVBTConfig
     config = load_config(args.config, base, overrides={"min_score": args.min_score})
-    dets = read_mot(args.detections, kind="det")
+    if args.detections is None and args.video is None:
+        raise InputError("give DET.txt, or --video (with --detector) to detect in its frames")
+    if args.detections is not None and args.detector is not None:
+        raise InputError("--detector detects in the frames: give it without DET.txt")
+    if args.detections is None:
+        dets = detect_in_video(args.video, args.detector or "hog", args.quiet)
+    else:
+        dets = read_mot(args.detections, kind="det")
     appearance = None if args.appearance is None else load_appearance(args.appearance,
                                                                       len(dets))
     n_frames = None
@@ -134,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
         from avtrack.io.video import probe_video
 
         video = probe_video(args.video)
-        check_against_video(dets, video, args.detections)
+        check_against_video(dets, video, args.detections or args.video)
         if config.appearance != "bhattacharyya":
             raise InputError("--video gives colour histograms: the config's appearance must be "
                              f"'bhattacharyya', got {config.appearance!r}", args.config)
@@ -147,7 +181,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.image_size:
         image_size = parse_image_size(args.image_size)
     else:
-        seqinfo = find_seqinfo(args.detections)
+        seqinfo = find_seqinfo(args.detections) if args.detections is not None else None
         info = read_seqinfo(seqinfo) if seqinfo else {}
         if "width" in info and "height" in info:
             image_size = (int(info["width"]), int(info["height"]))
@@ -155,8 +189,8 @@ def run(args: argparse.Namespace) -> int:
             image_size = image_size_from_detections(dets)
         n_frames = info.get("length")
     if len(dets) == 0 and not args.quiet:
-        print(f"avtrack: warning: {args.detections} has no detections; writing empty results",
-              file=sys.stderr)
+        print(f"avtrack: warning: {args.detections or 'the detector'} found no detections; "
+              f"writing empty results", file=sys.stderr)
     t0 = time.perf_counter()
     n = max(dets.n_frames, n_frames or 0)
     if video is not None:
@@ -170,7 +204,7 @@ def run(args: argparse.Namespace) -> int:
         with progress.activity(f"tracking {n} frames", args.quiet):
             res = track_mot(dets, appearance, config, image_size, n_frames)
     except ValueError as exc:
-        raise InputError(str(exc), args.detections) from None
+        raise InputError(str(exc), args.detections or args.video) from None
     elapsed = time.perf_counter() - t0
     write_mot(args.output, res)
     if not args.quiet:
