@@ -1,0 +1,114 @@
+"""The visual tracker on all six shared MOT15 sequences, beside SORT, ByteTrack and OC-SORT.
+
+Every tracker gets SORT's public Faster R-CNN detections of ADL-Rundle-6, ETH-Bahnhof,
+KITTI-13, PETS09-S2L1, TUD-Campus and Venice-2 (``../shared/data/mot15``) and is scored by
+:func:`avtrack.metrics.evaluate_mot` (MOT15 preprocessing, sequence length and image size from
+``seqinfo.ini``). Peers run as ``benchmarks/bench_mot.py`` runs them, with their defaults
+(PyPI ``trackers``: SORT, ByteTrack, OC-SORT; Bewley's original SORT, ``sort-tracker-py``).
+avtrack runs with its defaults and with the candidate settings of the default-parameter study
+(``CANDIDATES``). Combined rows: MOTA from FP, FN and IDSW summed over the sequences and divided
+by the summed ground-truth boxes; mean IDF1 and HOTA; "IDF1 (summed)" from the summed identity
+counts (rebuilt from IDR and IDP).
+
+Usage::
+
+    python benchmarks/bench_mot15.py          # about a minute
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import sys  # noqa: E402
+from dataclasses import replace  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from avtrack.io.datasets import read_seqinfo  # noqa: E402
+from avtrack.io.mot import read_mot  # noqa: E402
+from avtrack.metrics.mot import evaluate_mot  # noqa: E402
+from avtrack.tracking.ovbt import OVBTConfig, track_mot  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_mot  # noqa: E402
+
+DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "mot15"
+SEQS = ["ADL-Rundle-6", "ETH-Bahnhof", "KITTI-13", "PETS09-S2L1", "TUD-Campus", "Venice-2"]
+PEERS = [("sort-bewley", "SORT (Bewley, original)"), ("sort", "trackers SORT"),
+         ("bytetrack", "trackers ByteTrack"), ("ocsort", "trackers OC-SORT")]
+#: label -> OVBTConfig from the sequence's frame rate.
+CANDIDATES = {
+    "avtrack defaults": lambda fps: OVBTConfig(),
+    "avtrack min_score 0.9": lambda fps: replace(OVBTConfig(), min_score=0.9),
+    "avtrack study, fixed": lambda fps: replace(
+        OVBTConfig(), min_score=0.88, birth_velocity_std=0.15, death_frames=15,
+        dyn_std_size=0.05),
+    "avtrack study, size noise 0.75/fps": lambda fps: replace(
+        OVBTConfig(), min_score=0.88, birth_velocity_std=0.15, death_frames=15,
+        dyn_std_size=0.75 / fps),
+}
+
+
+def load(seq: str) -> dict:
+    info = read_seqinfo(DATA / seq / "seqinfo.ini")
+    return {"dets": read_mot(DATA / seq / "det" / "det.txt", kind="det"),
+            "gt": read_mot(DATA / seq / "gt" / "gt.txt", kind="gt"),
+            "fps": float(info["frame_rate"]), "n": int(info["length"]),
+            "size": (int(info["width"]), int(info["height"]))}
+
+
+def row(s) -> dict:
+    idtp = s.IDR / 100 * s.n_gt_dets
+    n_res = idtp / (s.IDP / 100) if s.IDP > 0 else 0.0
+    return {"MOTA": s.MOTA, "IDF1": s.IDF1, "HOTA": s.HOTA, "FP": s.FP, "FN": s.FN,
+            "IDSW": s.IDSW, "n_gt": s.n_gt_dets, "idtp": idtp, "n_res": n_res}
+
+
+def combine(rows: list[dict]) -> dict:
+    g = sum(r["n_gt"] for r in rows)
+    fp, fn, sw = (sum(r[k] for r in rows) for k in ("FP", "FN", "IDSW"))
+    idtp, nres = sum(r["idtp"] for r in rows), sum(r["n_res"] for r in rows)
+    return {"MOTA": 100 * (1 - (fp + fn + sw) / g),
+            "IDF1": float(np.mean([r["IDF1"] for r in rows])),
+            "HOTA": float(np.mean([r["HOTA"] for r in rows])), "FP": fp, "FN": fn, "IDSW": sw,
+            "IDF1w": 100 * 2 * idtp / (g + nres)}
+
+
+def main() -> int:
+    data = {s: load(s) for s in SEQS}
+    runs: dict[str, dict[str, dict]] = {}
+    for key, label in PEERS:
+        runs[label] = {}
+        for s, d in data.items():
+            if key == "sort-bewley":
+                loop, to_mot = bench_mot.bewley_sort_runner(d["dets"])
+            else:
+                loop, to_mot = bench_mot.peer_runner(key, d["dets"])
+            runs[label][s] = row(evaluate_mot(d["gt"], to_mot(loop()), n_frames=d["n"]))
+    for label, make in CANDIDATES.items():
+        runs[label] = {s: row(evaluate_mot(d["gt"], track_mot(
+            d["dets"], None, make(d["fps"]), d["size"], d["n"]), n_frames=d["n"]))
+            for s, d in data.items()}
+    print("| tracker | " + " | ".join(f"{s} ({data[s]['fps']:.0f} fps)" for s in SEQS) + " |")
+    print("|---|" + "---|" * len(SEQS))
+    for label, rows in runs.items():
+        cells = [f"{r['MOTA']:.1f} / {r['IDF1']:.1f} / {r['HOTA']:.1f}" for r in
+                 (rows[s] for s in SEQS)]
+        print(f"| {label} | " + " | ".join(cells) + " |")
+    for title, seqs in (("six sequences", SEQS),
+                        ("five without TUD-Campus", [s for s in SEQS if s != "TUD-Campus"])):
+        print(f"\nCombined, {title}\n\n| tracker | MOTA | mean IDF1 | mean HOTA | FP | FN | IDSW "
+              f"| IDF1 (summed) |\n|---|---|---|---|---|---|---|---|")
+        for label, rows in runs.items():
+            c = combine([rows[s] for s in seqs])
+            print(f"| {label} | {c['MOTA']:.1f} | {c['IDF1']:.1f} | {c['HOTA']:.1f} | {c['FP']} | "
+                  f"{c['FN']} | {c['IDSW']} | {c['IDF1w']:.1f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
