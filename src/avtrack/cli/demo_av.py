@@ -51,12 +51,6 @@ def _progress(step: int, quiet: bool) -> float:
 
 def run_av(args: argparse.Namespace) -> int:
     from avtrack.audio.arrays import load_array
-    from avtrack.av.pipeline import (
-        audio_peaks,
-        localizer_grid,
-        scene_geometry,
-        track_scene_persons,
-    )
     from avtrack.cli.localize import localize_signal
     from avtrack.io.doa import read_doa_csv
     from avtrack.io.mot import read_mot, write_mot
@@ -67,6 +61,12 @@ def run_av(args: argparse.Namespace) -> int:
     from avtrack.metrics.mot import evaluate_mot
     from avtrack.simulate.scene import simulate_scene, write_scene
     from avtrack.tracking.doa_base import DEFAULT_OBSERVATIONS, heatmap_sequence, make_tracker
+    from avtrack.tracking.persons_scene import (
+        audio_peaks,
+        localizer_grid,
+        scene_geometry,
+        track_scene_persons,
+    )
     from avtrack.tracking.vavit import load_scene
     from avtrack.viz import report
     from avtrack.viz.video import render_scene_video

@@ -1,9 +1,9 @@
 """``avtrack track-av``: audio-visual tracking and diarization of a scene directory.
 
 Two models: ``direction`` (default), persons in the array's direction space
-(:mod:`avtrack.av.persons`), who stay tracked out of the camera's view and are born from audio
-too; ``image``, the thesis's image-plane model (VAVIT, :mod:`avtrack.tracking.vavit`) with its
-learned GLLiM audio-to-image mapping.
+(:mod:`avtrack.tracking.persons`), who stay tracked out of the camera's view and are born from
+audio too; ``image``, the thesis's image-plane model (VAVIT, :mod:`avtrack.tracking.vavit`)
+with its learned GLLiM audio-to-image mapping.
 """
 
 from __future__ import annotations
@@ -183,7 +183,7 @@ def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = Fa
 def load_person_config(path: Path | None, threshold: float | None):
     """PersonConfig from ``--config`` (the visual tracker's fields under ``visual:``), with
     ``--threshold`` on top."""
-    from avtrack.av.persons import PersonConfig
+    from avtrack.tracking.persons import PersonConfig
 
     return load_config(path, PersonConfig, overrides={"speaking_threshold": threshold})
 
@@ -198,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
 
 def run_direction(args: argparse.Namespace) -> int:
     """--model direction: persons in the array's direction space."""
-    from avtrack.av.pipeline import track_scene_persons
+    from avtrack.tracking.persons_scene import track_scene_persons
     from avtrack.tracking.vavit import load_scene
 
     if args.plot:
@@ -247,7 +247,7 @@ def _write_text(path: Path, text: str) -> None:
 
 def image_persons(res, scene):
     """``persons.csv`` rows of an image-plane result: each reported box's direction."""
-    from avtrack.av.pipeline import PersonsTable, scene_geometry
+    from avtrack.tracking.persons_scene import PersonsTable, scene_geometry
 
     tr = res.tracks
     if scene.scenario is None or len(tr) == 0:

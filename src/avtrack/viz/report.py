@@ -107,7 +107,7 @@ def persons_figure(persons, truth=None, view_deg: tuple[float, float] | None = N
     Parameters
     ----------
     persons : PersonsTable
-        :class:`avtrack.av.pipeline.PersonsTable`.
+        :class:`avtrack.io.persons.PersonsTable`.
     truth : DOATable, optional
     view_deg : (float, float), optional
         Azimuths of the image's side edges.

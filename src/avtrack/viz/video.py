@@ -752,7 +752,7 @@ def render_overlay_video(
     progress : bool
         Show a progress bar (tqdm, on stderr).
     persons : PersonsTable, optional
-        Every tracked person every frame (:class:`avtrack.av.pipeline.PersonsTable`): those
+        Every tracked person every frame (:class:`avtrack.io.persons.PersonsTable`): those
         without a box are drawn as a ring at their direction's pixel, or, out of the image, as
         an arrow at the edge on their side with their azimuth.
 
@@ -863,9 +863,9 @@ def render_scene_video(
     """
     import json
 
-    from avtrack.av.pipeline import PersonsResult
     from avtrack.errors import InputError
     from avtrack.io.mot import read_mot
+    from avtrack.tracking.persons_scene import PersonsResult
     from avtrack.tracking.vavit import AVSceneResult, SceneInputs, load_scene
 
     if not isinstance(result, AVSceneResult | PersonsResult):

@@ -5,8 +5,9 @@
 1. the visual tracker (OVBT, thesis §3.1) on the head detections, on the image plane;
 2. the DP-RTF + EG localizer (thesis §5.2–5.3) on the microphone signals, its heat maps
    averaged over each video frame and reduced to their peaks (:func:`audio_peaks`);
-3. the direction-space person tracker (:class:`~avtrack.av.persons.PersonTracker`), which links
-   the visual tracks to persons and carries persons on audio while the camera does not see them;
+3. the direction-space person tracker (:class:`~avtrack.tracking.persons.PersonTracker`),
+   which links the visual tracks to persons and carries persons on audio while the camera
+   does not see them;
 
 and returns the MOTChallenge boxes of the persons in the image (the visual tracks, labelled
 with their person's identity), every person's direction every frame (``persons.csv``) and the
@@ -23,13 +24,13 @@ import numpy as np
 from avtrack.audio.arrays import MicArray
 from avtrack.av.diarization import speaking_segments
 from avtrack.av.geometry import CameraGeometry
-from avtrack.av.persons import PersonConfig, PersonTracker
 from avtrack.io.mot import MOTData
 from avtrack.io.persons import PersonsTable
 from avtrack.io.rttm import RTTMSegment
 from avtrack.localize.grid import DirectionGrid
 from avtrack.metrics.mot import box_iou
 from avtrack.tracking.ovbt import OVBTConfig, track_mot
+from avtrack.tracking.persons import PersonConfig, PersonTracker
 
 #: Peaks of a frame-mean DP-RTF + EG heat map below this weight are not observations.
 AUDIO_PEAK_FLOOR = 0.05

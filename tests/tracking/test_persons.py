@@ -8,12 +8,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from avtrack.av.geometry import CameraGeometry, wrap_deg
-from avtrack.av.persons import PersonConfig, PersonTracker
-from avtrack.av.pipeline import audio_peaks, track_persons
 from avtrack.io.mot import MOTData
 from avtrack.io.persons import PERSONS_HEADER
 from avtrack.localize.grid import DirectionGrid
 from avtrack.simulate.camera import PinholeCamera
+from avtrack.tracking.persons import PersonConfig, PersonTracker
+from avtrack.tracking.persons_scene import audio_peaks, track_persons
 
 
 def geometry(hfov: float = 60.0, offset=(0.0, 0.0, 0.0)) -> CameraGeometry:
