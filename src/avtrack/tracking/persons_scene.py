@@ -265,7 +265,15 @@ def localize_scene(scene, array: MicArray, n_frames: int) -> tuple[list[np.ndarr
 
     grid = localizer_grid(array)
     loc = make_localizer("dprtf-eg", array, grid)
-    heat = loc.run(scene.audio)
+    audio = scene.audio
+    if scene.fs != loc.fs:  # as `avtrack localize` does: resample to the STFT's 16 kHz
+        from fractions import Fraction
+
+        import scipy.signal
+
+        ratio = Fraction(loc.fs, int(scene.fs))
+        audio = scipy.signal.resample_poly(audio, ratio.numerator, ratio.denominator, axis=1)
+    heat = loc.run(audio)
     span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
     return audio_peaks(heat.weights, heat.time_s, grid, scene.fps, n_frames), span
 
