@@ -44,6 +44,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Arguments that name files a command writes.
+OUTPUT_ARGS = ("output", "json", "plot", "markdown")
+
+
+def refuse_output_over_input(args: argparse.Namespace) -> None:
+    """An output file that is one of the command's input files would destroy that input: refuse
+    it before anything is computed."""
+    from pathlib import Path
+
+    values = {k: v for k, v in vars(args).items() if isinstance(v, Path)}
+    inputs = [v for k, v in values.items() if k not in OUTPUT_ARGS and v.is_file()]
+    for name in OUTPUT_ARGS:
+        out = values.get(name)
+        if out is None or not out.exists():
+            continue
+        for inp in inputs:
+            try:
+                same = out.samefile(inp)
+            except OSError:
+                same = False
+            if same:
+                raise InputError(f"the output ({name}) is the input {inp}: refusing to "
+                                 f"overwrite it", out)
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -51,6 +76,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
+        refuse_output_over_input(args)
         return int(args.func(args) or 0)
     except InputError as exc:
         print(f"avtrack: error: {exc}", file=sys.stderr)
