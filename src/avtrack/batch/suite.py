@@ -163,9 +163,18 @@ def materialise(spec: str, workdir: Path) -> Path:
 
 
 def run_item(item: dict, workdir: str | None = None) -> dict[str, Any]:
-    """One result row: the item's task, input and parameters, its scores, and its run time."""
+    """One result row: the item's task, input and parameters, its scores, and its run time.
+
+    The task runs with one BLAS thread, whatever process runs it (this one, a local worker or a
+    Dask worker): a BLAS reduction's order follows its thread count, and the rows of a suite
+    must not depend on where it ran. Batch runs spread items, not threads, over the cores.
+    """
+    from threadpoolctl import threadpool_limits
+
     task = TASKS[item["task"]]
-    with tempfile.TemporaryDirectory(prefix="avtrack-bench-") as tmp:
+    with threadpool_limits(limits=1, user_api="blas"), tempfile.TemporaryDirectory(
+        prefix="avtrack-bench-"
+    ) as tmp:
         wd = Path(workdir) if workdir else Path(tmp)
         t0 = time.perf_counter()
         scores = task({**item, "folder": str(materialise(item["input"], wd))})
