@@ -151,3 +151,70 @@ def test_eval_persons_scores_the_out_of_view_directions(main, tmp_path, capsys):
     # bad input: one line, exit 2
     assert main(["eval", "persons", str(scene_dir), str(scene_dir / "gt" / "doa.csv")]) == 2
     assert "header must be" in capsys.readouterr().err
+
+
+def _recording_files(tmp_path):
+    """The out-of-image scene as a user's recording: camera file in the array frame."""
+    import json
+
+    import yaml
+
+    scene_dir = out_of_image()
+    cam = json.loads((scene_dir / "camera.json").read_text())
+    sc = yaml.safe_load((scene_dir / "scene.yaml").read_text())
+    arr = np.asarray(sc["array"]["position"], float)
+    yaw = float(sc["array"]["yaw_deg"])
+    c, s = np.cos(np.deg2rad(-yaw)), np.sin(np.deg2rad(-yaw))
+    rel = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ (np.asarray(cam["position"]) - arr)
+    cam.update(position=rel.tolist(), yaw_deg=cam["yaw_deg"] - yaw)
+    camera = tmp_path / "camera.yaml"
+    camera.write_text(yaml.safe_dump(cam))
+    return scene_dir, camera
+
+
+def test_track_av_on_a_recording_of_ones_own(main, tmp_path, capsys):
+    """No scene directory: detections, the WAV with its array file and a camera file; then
+    directions computed elsewhere (--doa) instead of the WAV."""
+    scene_dir, camera = _recording_files(tmp_path)
+    out = tmp_path / "rec"
+    args = ["track-av", "--detections", str(scene_dir / "detections.txt"), "--fps", "25",
+            "--camera", str(camera), "-o", str(out)]
+    assert main([*args, "--audio", str(scene_dir / "audio.wav"), "--array",
+                 str(scene_dir / "array.json"), "--appearance",
+                 str(scene_dir / "appearance.npy")]) == 0
+    assert "tracked 400 frames" in capsys.readouterr().out
+    tracks = read_mot(out / "tracks.txt", kind="result")
+    assert len(np.unique(tracks.ids)) == 1  # back in view: known by its appearance
+    rows = [r.split(",") for r in (out / "persons.csv").read_text().splitlines()[1:]]
+    hidden = {r[2] for r in rows if r[7] == "0" and abs(float(r[3]) + 75.0) < 12.0}
+    assert len(hidden) == 1  # the talker never seen
+    assert len({t.speaker for t in read_rttm(out / "speech.rttm")}) == 2
+    out2 = tmp_path / "rec-doa"
+    assert main([*args[:-1], str(out2), "--doa", str(scene_dir / "gt" / "doa.csv"), "-q"]) == 0
+    assert len({t.speaker for t in read_rttm(out2 / "speech.rttm")}) == 2
+
+
+def test_track_av_recording_bad_input(main, tmp_path, capsys):
+    from tests.io.test_video import write_video
+
+    scene_dir, camera = _recording_files(tmp_path)
+    video = tmp_path / "v.avi"
+    write_video(video)  # 96 x 64, 12 frames at 10 fps
+    base = ["track-av", "-o", str(tmp_path / "o")]
+    assert main([*base, "--video", str(video), "--camera", str(camera), "--doa",
+                 str(scene_dir / "gt" / "doa.csv")]) == 2
+    assert "the camera file says 640x480, the video is 96x64" in capsys.readouterr().err
+    assert main([*base, "--detections", str(scene_dir / "detections.txt"), "--camera",
+                 str(camera), "--doa", str(scene_dir / "gt" / "doa.csv")]) == 2
+    assert "--fps" in capsys.readouterr().err
+    assert main([*base, "--camera", str(camera), "--fps", "25", "--detections",
+                 str(scene_dir / "detections.txt")]) == 2
+    assert "--audio FILE.wav with --array" in capsys.readouterr().err
+    assert main(["track-av", str(scene_dir), "-o", str(tmp_path / "o"), "--fps", "25"]) == 2
+    assert "without SCENE_DIR" in capsys.readouterr().err
+    (tmp_path / "bad.yaml").write_text("fx: 1\n")
+    assert main([*base, "--camera", str(tmp_path / "bad.yaml"), "--fps", "25", "--doa",
+                 str(scene_dir / "gt" / "doa.csv"), "--detections",
+                 str(scene_dir / "detections.txt")]) == 2
+    assert "missing field" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

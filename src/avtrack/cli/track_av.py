@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import HelpFormatter, add_array_option, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.mot import write_mot
 from avtrack.io.rttm import write_rttm
@@ -54,6 +54,21 @@ image), OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --
 OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
 image --plot).
 
+A recording of your own (no scene directory): a video, the microphone array's WAV (channel k
+is microphone k of --array) and a camera file, CAMERA.yaml, in the array's frame (metres,
+x axis = azimuth 0, z up; the array's centre at the origin):
+  fx: 554.3            # focal lengths and principal point, pixels
+  fy: 554.3
+  cx: 320.0
+  cy: 240.0
+  width: 640           # the video's frame size
+  height: 480
+  position: [0.0, 0.0, 0.05]   # the camera's optical centre
+  yaw_deg: 0.0         # its optical axis: azimuth (counter-clockwise from x) ...
+  pitch_deg: 0.0       # ... and elevation
+  avtrack track-av --video rec.mp4 --audio rec.wav --array nao4 --camera camera.yaml -o out
+  avtrack track-av --detections det.txt --fps 25 --doa doa.csv --camera camera.yaml -o out
+
 The --config YAML holds PersonConfig fields with --model direction (the visual tracker's under
 "visual:"), e.g.:
   sigma_audio_deg: 5.0
@@ -81,7 +96,32 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         epilog=EXAMPLES,
         formatter_class=HelpFormatter,
     )
-    p.add_argument("scene", type=Path, metavar="SCENE_DIR", help="scene directory")
+    p.add_argument("scene", type=Path, metavar="SCENE_DIR", nargs="?",
+                   help="scene directory (or give a recording with --audio / --camera)")
+    rec = p.add_argument_group(
+        "a recording of your own (instead of SCENE_DIR; direction model)")
+    rec.add_argument("--video", type=Path, metavar="FILE",
+                     help="the camera's video (its frame rate, length and size are used)")
+    rec.add_argument("--audio", type=Path, metavar="FILE.wav",
+                     help="the array's recording; WAV channel k is microphone k of --array")
+    add_array_option(rec, required=False,
+                     note=", the microphones of --audio (positions in the array frame)")
+    rec.add_argument("--camera", type=Path, metavar="CAMERA.yaml",
+                     help="camera intrinsics, image size and pose in the array frame (see below)")
+    rec.add_argument("--detections", type=Path, metavar="DET.txt",
+                     help="head or person detections (MOTChallenge det); default: detect in "
+                     "--video's frames")
+    rec.add_argument("--appearance", type=Path, metavar="APP.npy",
+                     help="appearance embeddings, one row per --detections row (default: "
+                     "colour histograms from --video, or none)")
+    rec.add_argument("--detector", metavar="NAME",
+                     help="detector for --video without --detections (hog, the default; "
+                     "haar-face; or module:attribute)")
+    rec.add_argument("--doa", type=Path, metavar="DOA.csv",
+                     help="directions computed elsewhere (DOA CSV) instead of localizing "
+                     "--audio")
+    rec.add_argument("--fps", type=float, metavar="F",
+                     help="video frame rate when there is no --video (default: the video's)")
     p.add_argument(
         "-o",
         "--output",
@@ -191,6 +231,13 @@ def load_person_config(path: Path | None, threshold: float | None):
 def run(args: argparse.Namespace) -> int:
     if not 0 < args.fov_fraction <= 1:
         raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
+    own = [o for o in ("video", "audio", "camera", "detections", "doa", "fps", "detector",
+                       "array", "appearance") if getattr(args, o) is not None]
+    if args.scene is None:
+        return run_recording(args)
+    if own:
+        raise InputError(f"--{own[0]} describes a recording of your own: give it without "
+                         f"SCENE_DIR")
     if args.model == "direction" and not args.no_audio:
         return run_direction(args)
     return run_image(args)
@@ -235,6 +282,163 @@ def run_direction(args: argparse.Namespace) -> int:
             f"speakers -> {out} ({elapsed:.1f} s, real-time factor "
             f"{elapsed / max(res.timing['duration'], 1e-9):.2f})"
         )
+    return 0
+
+
+def load_camera_file(path: Path):
+    """CAMERA.yaml (or .json): a PinholeCamera in the array's frame."""
+    import yaml
+
+    from avtrack.simulate.camera import PinholeCamera
+
+    if not path.is_file():
+        raise InputError("camera file not found", path)
+    try:
+        raw = yaml.safe_load(path.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
+    return PinholeCamera.from_json(raw, path)
+
+
+def _doa_peaks(path: Path, fps: float, n_frames: int) -> list[np.ndarray]:
+    """Azimuths per video frame from a DOA CSV (its active rows)."""
+    from avtrack.io.doa import read_doa_csv
+
+    table = read_doa_csv(path)
+    out: list[list[float]] = [[] for _ in range(n_frames)]
+    idx = np.floor(table.time_s * fps + 0.5).astype(np.int64)
+    for k, a, on in zip(idx.tolist(), table.azimuth_deg.tolist(), table.active.tolist(),
+                        strict=True):
+        if on and 0 <= k < n_frames:
+            out[k].append(a)
+    return [np.unique(np.asarray(v, dtype=float)) for v in out]
+
+
+def run_recording(args: argparse.Namespace) -> int:
+    """A recording of the user's own: video (or detections), audio (or DOA), camera file."""
+    from avtrack.audio.arrays import load_array
+    from avtrack.av.geometry import CameraGeometry
+    from avtrack.cli.localize import read_array_audio
+    from avtrack.io.mot import read_mot
+    from avtrack.tracking.persons_scene import audio_peaks, localizer_grid, track_persons
+
+    if args.model != "direction":
+        raise InputError("a recording of your own is tracked with --model direction (the image "
+                         "model's mapping is trained on a simulated calibration of a scene)")
+    config = load_person_config(args.config, args.threshold)  # its errors first, as elsewhere
+    if args.camera is None:
+        raise InputError("give SCENE_DIR, or a recording: --camera CAMERA.yaml with --video "
+                         "or --detections, and --audio --array or --doa")
+    if args.plot or args.mapping is not None:
+        raise InputError("--plot and --mapping belong to --model image on a scene directory")
+    camera = load_camera_file(args.camera)
+    geometry = CameraGeometry(camera, np.zeros(3), 0.0)
+    video = None
+    if args.video is not None:
+        from avtrack.io.video import probe_video
+
+        video = probe_video(args.video)
+        if video.image_size != (camera.width, camera.height):
+            raise InputError(f"the camera file says {camera.width}x{camera.height}, the video "
+                             f"is {video.width}x{video.height}", args.camera)
+    fps = args.fps if args.fps is not None else (video.fps if video is not None else None)
+    if fps is None or not (np.isfinite(fps) and 0 < fps <= 1000):
+        raise InputError("--fps: give the frame rate (frames per second) when there is no "
+                         "--video" if fps is None else f"--fps must be in (0, 1000], got {fps}")
+    # audio: directions computed elsewhere, or the array's recording localized here
+    audio = None
+    if args.doa is None and not args.no_audio and (args.audio is None or args.array is None):
+        raise InputError("give --audio FILE.wav with --array ARRAY, or --doa DOA.csv (or use "
+                         "--no-audio)")
+    if args.audio is not None and not args.no_audio:
+        if args.array is None:
+            raise InputError("--audio needs --array (WAV channel k is microphone k)")
+        array = load_array(args.array)
+        audio = read_array_audio(args.audio, array, quiet=args.quiet)
+    # frames
+    if video is not None:
+        n_frames = video.n_frames
+        if audio is not None:
+            a_s, v_s = audio.shape[1] / 16000.0, video.n_frames / fps
+            if abs(a_s - v_s) > max(1.0, 0.02 * v_s):
+                raise InputError(f"the audio lasts {a_s:.2f} s, the video {v_s:.2f} s "
+                                 f"({video.n_frames} frames at {fps:g} fps): not one recording?",
+                                 args.audio)
+    elif audio is not None:
+        n_frames = int(np.floor(audio.shape[1] / 16000.0 * fps + 1e-9))
+    else:
+        n_frames = 0
+    # detections
+    if args.detections is not None:
+        if args.detector is not None:
+            raise InputError("--detector detects in --video's frames: give it without "
+                             "--detections")
+        dets = read_mot(args.detections, kind="det")
+        n_frames = max(n_frames, dets.n_frames)
+    elif video is not None:
+        from avtrack.cli.track_mot import detect_in_video
+
+        dets = detect_in_video(args.video, args.detector or "hog", args.quiet)
+    else:
+        raise InputError("give --video (detections found in its frames) or --detections")
+    if n_frames < 1:
+        raise InputError("nothing to track: no frames")
+    appearance = None
+    if args.appearance is not None:
+        from avtrack.cli.track_mot import load_appearance
+
+        if args.detections is None:
+            raise InputError("--appearance gives one row per --detections row: give both")
+        appearance = load_appearance(args.appearance, len(dets))
+    if video is not None:
+        from avtrack.cli.track_mot import check_against_video
+        from avtrack.io.video import iter_frames
+        from avtrack.models.histograms import detection_histograms
+
+        check_against_video(dets, video, args.detections or args.video)
+        if appearance is None:
+            with progress.activity(f"colour histograms of {len(dets)} boxes", args.quiet):
+                appearance = detection_histograms(iter_frames(video.path, video), dets,
+                                                  n_frames)
+    peaks, span = None, 360.0
+    if not args.no_audio:
+        if args.doa is not None:
+            peaks = _doa_peaks(args.doa, fps, n_frames)
+        else:
+            from avtrack.localize import make_localizer
+
+            grid = localizer_grid(array)
+            loc = make_localizer("dprtf-eg", array, grid)
+            with progress.activity(f"localizing {audio.shape[1] / 16000:.1f} s", args.quiet):
+                heat = loc.run(audio)
+            peaks = audio_peaks(heat.weights, heat.time_s, grid, fps, n_frames)
+            span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
+    vcfg = config.visual
+    if args.appearance is None and appearance is not None and vcfg.appearance != "bhattacharyya":
+        from dataclasses import replace
+
+        vcfg = replace(vcfg, appearance="bhattacharyya", appearance_lambda=2.0)
+    out = args.output
+    if out.exists() and not out.is_dir():
+        raise InputError("output exists and is not a directory", out)
+    t0 = time.perf_counter()
+    with progress.activity(f"tracking {n_frames} frames", args.quiet):
+        try:
+            res = track_persons(dets, appearance, peaks, geometry, fps, n_frames,
+                                visual_config=vcfg, config=config, azimuth_span_deg=span)
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+    elapsed = time.perf_counter() - t0
+    out.mkdir(parents=True, exist_ok=True)
+    write_mot(out / "tracks.txt", res.tracks)
+    _write_text(out / "persons.csv", res.persons.to_csv())
+    if peaks is not None:
+        write_rttm(out / "speech.rttm", res.speech)
+    if not args.quiet:
+        print(f"tracked {n_frames} frames ({n_frames / fps:.1f} s): "
+              f"{len(np.unique(res.persons.ids))} persons, {len(res.tracks)} boxes, "
+              f"{len(res.speech)} speaker turns of {len({s.speaker for s in res.speech})} "
+              f"speakers -> {out} ({elapsed:.1f} s)")
     return 0
 
 
