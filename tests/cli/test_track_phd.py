@@ -91,3 +91,47 @@ def test_real_sequence(main, shared_data, tmp_path, capsys):
     assert "lpf: seq 45 cam 1, 1101 frames, visual faces" in msg
     ospa = float(msg.split("OSPA ")[1].split(" px")[0])
     assert ospa < 16.0
+
+
+def write_av163_video(path, n_frames=30, size=(360, 288)):
+    """An MJPG AVI in AV16.3's size: a saturated blue patch walking right on grey."""
+    import cv2
+
+    w, h = size
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 25.0, (w, h))
+    for k in range(n_frames):
+        img = np.full((h, w, 3), 128, np.uint8)
+        img[100:148, 40 + 5 * k : 72 + 5 * k] = (200, 60, 30)
+        writer.write(img)
+    writer.release()
+    return path
+
+
+def test_video_measurements_from_frames(main, small, tmp_path, capsys):
+    video = write_av163_video(tmp_path / "v.avi")
+    out = tmp_path / "t.csv"
+    rc = main(["track-phd", str(small), "--seq", "7", "--cam", "2", "--video", str(video),
+               "-o", str(out)])  # fmt: skip
+    assert rc == 0 and out.is_file()
+    msg = capsys.readouterr().out
+    assert "visual video colour templates; OSPA" in msg and "OSPA-T" in msg
+
+
+@pytest.mark.parametrize(
+    ("video_args", "extra", "message"),
+    [
+        ({"n_frames": 12}, [], "the video has 12 frames, sequence 7 camera 2 has 30"),
+        ({"size": (320, 240)}, [], "the video is 320x240, the AV16.3 calibration is for 360x288"),
+        ({}, ["--visual", "synthetic"], "--visual synthetic and --video both choose"),
+    ],
+)
+def test_video_that_does_not_fit_the_sequence(main, small, tmp_path, capsys, video_args, extra,
+                                              message):
+    video = write_av163_video(tmp_path / "v.avi", **video_args)
+    out = tmp_path / "t.csv"
+    rc = main(["track-phd", str(small), "--seq", "7", "--cam", "2", "--video", str(video),
+               "-o", str(out), *extra])  # fmt: skip
+    assert rc == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err
+    assert not out.exists()

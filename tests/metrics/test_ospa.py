@@ -120,3 +120,60 @@ def test_sequence():
     np.testing.assert_allclose(out, [[0, 0, 0], [5, 5, 0], [50, 0, 50]])
     with pytest.raises(ValueError, match="same number of frames"):
         ospa_sequence(est, gt[:2], 50)
+
+
+# --------------------------------------------------------------------------- OSPA-T
+
+
+def _tracks(*frames):
+    """Frames of ``{id: (x, y)}`` -> the ``(ids, points)`` pairs ospa_t takes."""
+    return [(np.array(list(f), dtype=int), np.array(list(f.values()), dtype=float).reshape(-1, 2))
+            for f in frames]
+
+
+def test_ospa_t_hand_cases():
+    from avtrack.metrics.ospa import ospa_t
+
+    truth = [np.array([[0.0, 0.0], [100.0, 0.0]])] * 4
+    # Two tracks 3 px off, labels kept: the distance is 3 every frame.
+    est = _tracks(*[{7: (3, 0), 9: (100, 3)}] * 4)
+    r = ospa_t(est, truth, cutoff=65, order=2, label_penalty=25)
+    assert r.labels == {7: 0, 9: 1}
+    assert r.mean == pytest.approx(3.0)
+    # Track 7 changes its id half way: the new id matches no true track, so on those frames
+    # one of two pairs costs sqrt(3^2 + 25^2): OSPA = sqrt((634 + 9) / 2).
+    est = _tracks(*[{7: (3, 0), 9: (100, 3)}] * 2, *[{8: (3, 0), 9: (100, 3)}] * 2)
+    r = ospa_t(est, truth, 65, 2, 25)
+    assert r.per_frame[:2, 0] == pytest.approx([3.0, 3.0])
+    assert r.per_frame[2:, 0] == pytest.approx([np.sqrt((634 + 9) / 2)] * 2)
+    # A missed target costs the cut-off in the cardinality part: sqrt(65^2 / 2).
+    est = _tracks(*[{9: (100, 0)}] * 4)
+    r = ospa_t(est, truth, 65, 2, 25)
+    assert r.per_frame[:, 0] == pytest.approx([np.sqrt(65**2 / 2)] * 4)
+    assert r.per_frame[:, 2] == pytest.approx([np.sqrt(65**2 / 2)] * 4)
+    # Absent truth (NaN row) and no estimate: 0; a false track alone: the cut-off.
+    truth2 = [np.array([[np.nan, np.nan]]), np.array([[np.nan, np.nan]])]
+    r = ospa_t(_tracks({}, {5: (1, 1)}), truth2, 65, 2, 25)
+    assert r.per_frame[:, 0] == pytest.approx([0.0, 65.0])
+
+
+def test_ospa_t_without_label_penalty_is_ospa():
+    from avtrack.metrics.ospa import ospa, ospa_t
+
+    rng = np.random.default_rng(3)
+    truth = [rng.uniform(0, 100, (3, 2)) for _ in range(6)]
+    est = [(rng.permutation(5)[:k], rng.uniform(0, 100, (k, 2))) for k in (0, 1, 2, 3, 4, 2)]
+    r = ospa_t(est, truth, 40, 2, label_penalty=0.0)
+    plain = [ospa(p, y, 40, 2).distance for (_, p), y in zip(est, truth, strict=True)]
+    assert r.per_frame[:, 0] == pytest.approx(plain)
+
+
+def test_ospa_t_rejects_bad_input():
+    from avtrack.metrics.ospa import ospa_t
+
+    with pytest.raises(ValueError, match="same number of frames"):
+        ospa_t(_tracks({1: (0, 0)}), [], 65)
+    with pytest.raises(ValueError, match="repeats"):
+        ospa_t([(np.array([1, 1]), np.zeros((2, 2)))], [np.zeros((1, 2))], 65)
+    with pytest.raises(ValueError, match="cutoff"):
+        ospa_t(_tracks({1: (0, 0)}), [np.zeros((1, 2))], 0)

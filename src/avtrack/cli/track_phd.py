@@ -13,18 +13,22 @@ from avtrack.cli.base import HelpFormatter, add_common, load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
 from avtrack.io.base import atomic_write
-from avtrack.metrics.ospa import ospa_sequence
+from avtrack.metrics.ospa import ospa_sequence, ospa_t
 from avtrack.phd import PHD_FILTERS, PHDConfig, PHDResult
 from avtrack.phd.likelihood import (
     VISUAL_SOURCES,
     av163_frames,
     av163_truth,
     av163_visual,
+    video_measurements,
 )
 
 #: OSPA cut-off (pixels) and order used for every report.
 OSPA_CUTOFF = 50.0
 OSPA_ORDER = 2
+#: OSPA-T cut-off and label penalty (pixels) of the SMC-PHD authors' released evaluation.
+OSPA_T_CUTOFF = 65.0
+OSPA_T_LABEL_PENALTY = 25.0
 
 EXAMPLES = """\
 examples:
@@ -33,6 +37,10 @@ examples:
 
   # the clustering baseline, another seed, synthetic face detections, with a figure
   avtrack track-phd av16.3/ --seq 24 --cam 2 --filter npf --seed 3 -o npf.csv --plot npf.png
+
+  # from the real video: colour-histogram measurements with the hist_temp templates
+  avtrack track-phd av16.3/ --seq 30 --cam 1 \
+      --video av16.3/seq30-2p-1101_cam1_divx_audio.avi -o lpf30.csv
 
 The folder holds files named as in the AV16.3 release used by seed 004:
   data_av_seqNN_camC.mat, DOA_measurements_seqNN_camC.mat, hist_temp_16bins_seqNN_camC.mat
@@ -53,8 +61,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "Track the speakers of an AV16.3 sequence in the image with the "
             "AV-LPF-SMC-PHD (labelled\nparticle flow) or AV-NPF-SMC-PHD (particle "
             "flow with k-means) filter; writes rows\nframe,id,x,y and prints OSPA "
-            f"(order {OSPA_ORDER}, cut-off {OSPA_CUTOFF:g} px), ESS, resamplings and "
-            "time."
+            f"(order {OSPA_ORDER}, cut-off {OSPA_CUTOFF:g} px), OSPA-T (labelled tracks, "
+            f"cut-off {OSPA_T_CUTOFF:g} px,\nlabel penalty {OSPA_T_LABEL_PENALTY:g} px), ESS, "
+            "resamplings and time."
         ),
         epilog=EXAMPLES,
         formatter_class=HelpFormatter,
@@ -75,6 +84,14 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         choices=VISUAL_SOURCES,
         help="visual measurements: face detections, detections synthesised from "
         "the ground truth, or faces when the file exists (default)",
+    )
+    p.add_argument(
+        "--video",
+        type=Path,
+        metavar="FILE.avi",
+        help="the sequence's video: visual measurements from its frames (colour histograms "
+        "against the hist_temp_16bins templates, foreground windows only) instead of "
+        "face detections",
     )
     p.add_argument("--config", type=Path, metavar="FILE.yaml", help="PHDConfig fields")
     p.add_argument(
@@ -149,6 +166,18 @@ def plot_tracks(
     plt.close(fig)
 
 
+def ospa_t_of(result: PHDResult, seq) -> float:
+    """OSPA-T of a filter's labelled estimates against ``posGT`` (presence from ``X_true``)."""
+    rows = result.rows(seq.frames)
+    estimates = []
+    for f in seq.frames:
+        r = rows[(rows[:, 0] == f) & (rows[:, 1] >= 0)]
+        estimates.append((r[:, 1].astype(int), r[:, 2:4]))
+    truths = [np.where(seq.present[t][:, None], seq.positions[:, t], np.nan)
+              for t in range(seq.n_frames)]
+    return ospa_t(estimates, truths, OSPA_T_CUTOFF, OSPA_ORDER, OSPA_T_LABEL_PENALTY).mean
+
+
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.config, PHDConfig)
     if not args.folder.is_dir():
@@ -157,7 +186,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--seq must be a positive integer, got {args.seq}")
     seq = load_av163(args.folder, args.seq, args.cam)
     rng = np.random.default_rng([args.seed, args.seq, args.cam])
-    visual, used = av163_visual(args.folder, seq, args.visual, rng)
+    if args.video is not None:
+        if args.visual != "auto":
+            raise InputError(f"--visual {args.visual} and --video both choose the visual "
+                             f"measurements; give one")
+        visual, used = video_measurements(args.video, seq), "video colour templates"
+    else:
+        visual, used = av163_visual(args.folder, seq, args.visual, rng)
     frames = av163_frames(seq, visual, config.sigma_audio, config.gate)
     tracker = PHD_FILTERS[args.filter](config, seed=args.seed)
     with progress.counting(tracker, "step", len(frames), args.filter, "frame", args.quiet):
@@ -165,6 +200,7 @@ def run(args: argparse.Namespace) -> int:
     write_tracks(args.output, result.rows(seq.frames))
     truth = av163_truth(seq)
     ospa = ospa_sequence(result.positions(), truth, OSPA_CUTOFF, OSPA_ORDER)
+    ospat = ospa_t_of(result, seq)
     if args.plot:
         plot_tracks(
             args.plot,
@@ -178,6 +214,7 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"{args.filter}: seq {args.seq} cam {args.cam}, {seq.n_frames} frames, visual "
             f"{used}; OSPA {ospa[:, 0].mean():.2f} px (p={OSPA_ORDER}, c={OSPA_CUTOFF:g}), "
+            f"OSPA-T {ospat:.2f} px (c={OSPA_T_CUTOFF:g}, label {OSPA_T_LABEL_PENALTY:g}), "
             f"ESS {result.mean_ess:.1f}, {result.n_resamplings} resamplings, "
             f"{result.time_s:.2f} s -> {args.output}"
         )

@@ -471,6 +471,69 @@ def av163_frames(
 
 VISUAL_SOURCES = ("auto", "faces", "synthetic")
 
+#: Mouth point in a colour-template window: horizontal centre, this fraction of the height
+#: down (the offset that fits ``posGT`` best on sequence 30, camera 1).
+TEMPLATE_MOUTH_OFFSET = 0.42
+
+
+def video_measurements(
+    video: str | Path,
+    seq: AV163Sequence,
+    detector=None,
+) -> list[np.ndarray]:
+    """Visual measurements of an AV16.3 sequence computed from its video frames.
+
+    By default the colour-histogram measurements of the audio-visual SMC-PHD trackers:
+    :class:`~avtrack.detect.colour.ColourTemplateDetector` with the sequence's
+    ``hist_temp_16bins`` templates (the non-placeholder cells), one point per template and
+    frame, at the window's mouth offset (:data:`TEMPLATE_MOUTH_OFFSET`).
+
+    Parameters
+    ----------
+    video : str or Path
+        The sequence's video (one frame per ``Timingcam`` row, 360 x 288).
+    seq : AV163Sequence
+    detector : object with ``detect(frame) -> (boxes, scores)``, optional
+        Another detector (boxes (left, top, width, height)); its points are the boxes'
+        mouth offsets the same way.
+
+    Returns
+    -------
+    list of T ndarray (U_t, 2)
+
+    Raises
+    ------
+    InputError
+        The video cannot be read, its size is not the calibration's image size, or its frame
+        count differs from the sequence's.
+    """
+    from avtrack.detect.colour import ColourTemplateDetector
+    from avtrack.errors import InputError
+    from avtrack.io.video import iter_frames, probe_video
+
+    info = probe_video(video)
+    if tuple(info.image_size) != tuple(IMAGE_SIZE):
+        raise InputError(
+            f"the video is {info.width}x{info.height}, the AV16.3 calibration is for "
+            f"{IMAGE_SIZE[0]}x{IMAGE_SIZE[1]}", video)
+    if abs(info.n_frames - seq.n_frames) > 0:
+        raise InputError(
+            f"the video has {info.n_frames} frames, sequence {seq.seq} camera {seq.cam} has "
+            f"{seq.n_frames} (is it the video of another sequence or camera?)", video)
+    if detector is None:
+        templates = seq.histograms[~seq.histogram_is_placeholder]
+        if len(templates) == 0:
+            raise InputError(f"hist_temp of sequence {seq.seq} camera {seq.cam} holds no "
+                             f"template (only placeholders)")
+        detector = ColourTemplateDetector(templates)
+    out = []
+    for frame in iter_frames(video, info):
+        boxes, _ = detector.detect(frame)
+        b = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2,
+                                    b[:, 1] + TEMPLATE_MOUTH_OFFSET * b[:, 3]]))
+    return out
+
 
 def av163_visual(
     folder: str | Path,
