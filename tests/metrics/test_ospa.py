@@ -140,12 +140,14 @@ def test_ospa_t_hand_cases():
     r = ospa_t(est, truth, cutoff=65, order=2, label_penalty=25)
     assert r.labels == {7: 0, 9: 1}
     assert r.mean == pytest.approx(3.0)
-    # Track 7 changes its id half way: the new id matches no true track, so on those frames
-    # one of two pairs costs sqrt(3^2 + 25^2): OSPA = sqrt((634 + 9) / 2).
-    est = _tracks(*[{7: (3, 0), 9: (100, 3)}] * 2, *[{8: (3, 0), 9: (100, 3)}] * 2)
+    # Track 7 becomes track 8 on the last frame: 7 covers more of true track 0, so 8 matches
+    # no true track and on that frame one of two pairs costs sqrt(3^2 + 25^2):
+    # OSPA = sqrt((634 + 9) / 2).
+    est = _tracks(*[{7: (3, 0), 9: (100, 3)}] * 3, {8: (3, 0), 9: (100, 3)})
     r = ospa_t(est, truth, 65, 2, 25)
-    assert r.per_frame[:2, 0] == pytest.approx([3.0, 3.0])
-    assert r.per_frame[2:, 0] == pytest.approx([np.sqrt((634 + 9) / 2)] * 2)
+    assert r.labels == {7: 0, 9: 1}
+    assert r.per_frame[:3, 0] == pytest.approx([3.0] * 3)
+    assert r.per_frame[3, 0] == pytest.approx(np.sqrt((634 + 9) / 2))
     # A missed target costs the cut-off in the cardinality part: sqrt(65^2 / 2).
     est = _tracks(*[{9: (100, 0)}] * 4)
     r = ospa_t(est, truth, 65, 2, 25)
@@ -177,3 +179,15 @@ def test_ospa_t_rejects_bad_input():
         ospa_t([(np.array([1, 1]), np.zeros((2, 2)))], [np.zeros((1, 2))], 65)
     with pytest.raises(ValueError, match="cutoff"):
         ospa_t(_tracks({1: (0, 0)}), [np.zeros((1, 2))], 0)
+
+
+def test_ospa_t_more_true_than_estimated_tracks():
+    """Two true tracks, one estimate that follows the second: it takes the second's label;
+    the first is missed on every frame."""
+    from avtrack.metrics.ospa import ospa_t
+
+    truth = [np.array([[0.0, 0.0], [100.0, 0.0]])] * 3
+    est = _tracks(*[{4: (100, 4)}] * 3)
+    r = ospa_t(est, truth, 65, 2, 25)
+    assert r.labels == {4: 1}
+    assert r.per_frame[:, 0] == pytest.approx([np.sqrt((16 + 65**2) / 2)] * 3)

@@ -169,10 +169,14 @@ def plot_tracks(
 def ospa_t_of(result: PHDResult, seq) -> float:
     """OSPA-T of a filter's labelled estimates against ``posGT`` (presence from ``X_true``)."""
     rows = result.rows(seq.frames)
+    ids = rows[:, 1].astype(np.int64)
+    # An estimate without identity (id -1, e.g. the clustering filter's) is a track of its own.
+    unlabelled = ids < 0
+    ids[unlabelled] = ids.max(initial=0) + 1 + np.arange(int(unlabelled.sum()))
     estimates = []
     for f in seq.frames:
-        r = rows[(rows[:, 0] == f) & (rows[:, 1] >= 0)]
-        estimates.append((r[:, 1].astype(int), r[:, 2:4]))
+        on = rows[:, 0] == f
+        estimates.append((ids[on], rows[on, 2:4]))
     truths = [np.where(seq.present[t][:, None], seq.positions[:, t], np.nan)
               for t in range(seq.n_frames)]
     return ospa_t(estimates, truths, OSPA_T_CUTOFF, OSPA_ORDER, OSPA_T_LABEL_PENALTY).mean

@@ -206,8 +206,9 @@ def ospa_t(
        assignment minimising :math:`\sum_{i} D(i, \pi(i))` with
        :math:`D(i, j) = \sum_t \min(c, \|x_t^i - y_t^j\|)^p` over frames where both exist,
        plus :math:`c^p` over frames where exactly one exists (Ristic et al. eq. 15).
-       An assigned estimated track takes its true track's label; the others take labels no
-       true track has.
+       Either side may stay unassigned (matched to an always-absent dummy track, at ``c^p``
+       per frame of its own). An assigned estimated track takes its true track's label; the
+       others take labels no true track has.
     2. Each frame is scored by OSPA with the base distance
        :math:`\tilde d(x, y) = (\|x - y\|^p + \alpha^p\,[\ell_x \ne \ell_y])^{1/p}` cut off at
        ``c`` (Ristic et al. eq. 11 with the same order for both parts).
@@ -215,7 +216,8 @@ def ospa_t(
     Parameters
     ----------
     estimates : sequence of T pairs ``(ids (n_t,), points (n_t, d))``
-        The estimated tracks' ids and positions on each frame.
+        The estimated tracks' ids and positions on each frame (an estimate without identity
+        is a track of its own: give it an id used nowhere else).
     truths : sequence of T ndarray (P, d)
         The true tracks' positions on each frame, NaN rows where a track is absent (a fixed
         number ``P`` of true tracks; row ``j`` is always track ``j``).
@@ -272,8 +274,16 @@ def ospa_t(
             one = e_on ^ y_on[j][None]
             cost[:, j] = (np.where(both, np.minimum(np.nan_to_num(d), cutoff) ** order, 0.0)
                           .sum(1) + cp * one.sum(1))
-        rows, cols = linear_sum_assignment(cost)
-        labels = {track_ids[r]: int(c) for r, c in zip(rows, cols, strict=True)}
+        # Dummy tracks (never present) on both sides, so that a track may stay unassigned
+        # at the cost of its frames alone.
+        n_est = len(track_ids)
+        full = np.zeros((n_est + n_true, n_true + n_est))
+        full[:n_est, :n_true] = cost
+        full[:n_est, n_true:] = (cp * e_on.sum(1))[:, None]
+        full[n_est:, :n_true] = (cp * y_on.sum(1))[None, :]
+        rows, cols = linear_sum_assignment(full)
+        labels = {track_ids[r]: int(c) for r, c in zip(rows, cols, strict=True)
+                  if r < n_est and c < n_true}
     # 2. Per-frame labelled OSPA.
     out = np.zeros((n_frames, 3))
     for t in range(n_frames):
