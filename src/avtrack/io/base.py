@@ -24,6 +24,29 @@ def parse_finite(text: str, name: str, path, row: int) -> float:
     return v
 
 
+#: Frame numbers a file may reach whatever its length (about 9 hours at 30 frames/s) ...
+FRAME_SPAN_FLOOR = 1_000_000
+#: ... and beyond that, this many frames per row of the file: trackers step through every
+#: frame up to the last, so a frame number far past what the rows could describe (a typo,
+#: a timestamp in a frame column) is refused instead of costing hours and gigabytes.
+FRAME_SPAN_PER_ROW = 1_000
+
+
+def check_frame_span(last: float, n_rows: int, path, what: str = "frame",
+                     per_unit: float = 1.0) -> None:
+    """InputError when the last frame number (or time, with ``per_unit`` frames per unit)
+    cannot belong to a file of ``n_rows`` rows: beyond
+    ``max(FRAME_SPAN_FLOOR, FRAME_SPAN_PER_ROW * n_rows) / per_unit``."""
+    from avtrack.errors import InputError
+
+    limit = max(FRAME_SPAN_FLOOR, FRAME_SPAN_PER_ROW * int(n_rows)) / per_unit
+    if last > limit:
+        fmt = ".0f" if what == "frame" else "g"
+        raise InputError(
+            f"{what} {last:{fmt}} lies far past what {n_rows} row(s) can describe (at most "
+            f"{limit:{fmt}} here); is there a typo, or a timestamp in the {what} column?", path)
+
+
 def temp_output(path: Path, suffix: str = ".tmp") -> tuple[int, str]:
     """``(fd, name)`` of a new temporary file next to ``path``, for writing then renaming
     onto it (:func:`os.replace` is atomic within a directory).

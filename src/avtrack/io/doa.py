@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write, parse_finite
+from avtrack.io.base import atomic_write, check_frame_span, parse_finite
 
 DOA_HEADER = "frame,time_s,id,azimuth_deg,elevation_deg,weight,active"
 _COLUMNS = DOA_HEADER.split(",")
@@ -227,6 +227,8 @@ def read_doa_csv(path: str | Path) -> DOATable:
             c.append(v)
     if not cols[0]:
         return DOATable.empty()
+    check_frame_span(max(cols[0]), len(cols[0]), path)
+    check_frame_span(max(cols[1]), len(cols[0]), path, "time_s")
     return DOATable(
         np.array(cols[0], dtype=np.int64),
         np.array(cols[1]),

@@ -19,7 +19,7 @@ from typing import Literal
 import numpy as np
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write
+from avtrack.io.base import atomic_write, check_frame_span
 
 Kind = Literal["det", "gt", "result"]
 
@@ -150,7 +150,9 @@ def read_mot(path: str | Path, kind: Kind = "det") -> MOTData:
     ------
     InputError
         Missing file, or a row with too few columns, a non-number, a NaN/inf coordinate, a
-        non-positive box size, a non-integer or < 1 frame, or (det) a decreasing frame.
+        non-positive box size, a non-integer or < 1 frame, (det) a decreasing frame, or a
+        frame far past what the file's rows can describe
+        (:func:`~avtrack.io.base.check_frame_span`).
     """
     if kind not in ("det", "gt", "result"):
         raise ValueError(f"read_mot: kind must be 'det', 'gt' or 'result', got {kind!r}")
@@ -177,6 +179,7 @@ def read_mot(path: str | Path, kind: Kind = "det") -> MOTData:
         rows.append(values)
     if not rows:
         return MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
+    check_frame_span(max(r[0] for r in rows), len(rows), path)
     width = max(len(r) for r in rows)
     arr = np.full((len(rows), max(width, 7)), np.nan)
     for i, r in enumerate(rows):
