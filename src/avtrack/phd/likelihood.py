@@ -473,7 +473,7 @@ VISUAL_SOURCES = ("auto", "faces", "synthetic")
 
 #: Mouth point in a colour-template window: horizontal centre, this fraction of the height
 #: down (the offset that fits ``posGT`` best on sequence 30, camera 1).
-TEMPLATE_MOUTH_OFFSET = 0.42
+TEMPLATE_MOUTH_OFFSET = 0.69
 
 
 def video_measurements(
