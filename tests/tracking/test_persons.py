@@ -223,3 +223,21 @@ def test_track_persons_labels_boxes_with_person_ids_and_writes_csv():
     assert text[0] == PERSONS_HEADER
     assert len(text) - 1 == len(frames) and text[1].startswith("1,0.0000,1,")
     assert {s.speaker for s in res.speech} == {f"P{int(res.tracks.ids[0])}"}
+
+
+def test_track_persons_never_repeats_an_id_in_a_frame():
+    """Every head detected twice (a second box a few pixels off, as two detectors or two
+    colour templates on one person give): the tracks stay a valid MOT result, one box per
+    person and frame."""
+    geo = geometry(60.0)
+    frames = walk_out_and_back(geo, talk_away=True, appearance=False)
+    rows = [(t + 1, b) for t, f in enumerate(frames) for b in f[1]]
+    rows += [(t + 1, b + np.array([6.0, 3.0, 0.0, 0.0])) for t, f in enumerate(frames)
+             for b in f[1]]
+    rows.sort(key=lambda r: r[0])
+    dets = MOTData(np.array([r[0] for r in rows]), -np.ones(len(rows)),
+                   np.vstack([r[1] for r in rows]), np.ones(len(rows)))
+    res = track_persons(dets, None, [f[3] for f in frames], geo, 25.0, len(frames))
+    pairs = list(zip(res.tracks.frames.tolist(), res.tracks.ids.tolist(), strict=True))
+    assert len(pairs) == len(set(pairs))
+    assert len(pairs) >= 0.9 * len({r[0] for r in rows})  # about one box per frame seen

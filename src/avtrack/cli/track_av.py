@@ -47,6 +47,11 @@ examples:
   # then score them
   avtrack eval mot scenes/meeting-1/gt/gt.txt out/meeting-1/tracks.txt
 
+AV16.3 (the sequence's real video; array 1's DOA measurements; the calibration maps them):
+  avtrack track-av ../shared/data/av16.3 --seq 30 --cam 1 \
+      --video ../shared/data/av16.3/seq30-2p-1101_cam1_divx_audio.avi -o out/av30
+  (default detector: the sequence's colour templates, hist_temp_16bins; or --detector NAME)
+
 Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes of persons seen in the
 image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked person every
 frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y empty outside the
@@ -122,6 +127,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                      "--audio")
     rec.add_argument("--fps", type=float, metavar="F",
                      help="video frame rate when there is no --video (default: the video's)")
+    av = p.add_argument_group("AV16.3 (SCENE_DIR is a folder of AV16.3 MAT files; with --video)")
+    av.add_argument("--seq", type=int, metavar="N", help="AV16.3 sequence number")
+    av.add_argument("--cam", type=int, choices=(1, 2, 3), help="AV16.3 camera")
     p.add_argument(
         "-o",
         "--output",
@@ -233,6 +241,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
     own = [o for o in ("video", "audio", "camera", "detections", "doa", "fps", "detector",
                        "array", "appearance") if getattr(args, o) is not None]
+    if args.seq is not None or args.cam is not None:
+        return run_av163(args)
     if args.scene is None:
         return run_recording(args)
     if own:
@@ -241,6 +251,55 @@ def run(args: argparse.Namespace) -> int:
     if args.model == "direction" and not args.no_audio:
         return run_direction(args)
     return run_image(args)
+
+
+def run_av163(args: argparse.Namespace) -> int:
+    """SCENE_DIR is an AV16.3 folder: its real video, DOA measurements and calibration."""
+    from avtrack.av.av163 import track_av163
+    from avtrack.io.av163 import load_av163
+
+    if args.seq is None or args.cam is None or args.scene is None or args.video is None:
+        raise InputError("AV16.3: give the folder, --seq N, --cam C and --video FILE")
+    if args.seq < 1:
+        raise InputError(f"--seq must be a positive integer, got {args.seq}")
+    for o in ("audio", "camera", "detections", "doa", "fps", "array", "appearance",
+              "mapping"):
+        if getattr(args, o) is not None:
+            raise InputError(f"--{o} does not apply to AV16.3 (its calibration, DOAs and video "
+                             f"are used)")
+    if args.model != "direction" or args.no_audio or args.plot:
+        raise InputError("AV16.3 is tracked with --model direction, with audio")
+    if not args.scene.is_dir():
+        raise InputError("AV16.3 folder not found", args.scene)
+    config = load_person_config(args.config, args.threshold)
+    seq = load_av163(args.scene, args.seq, args.cam)
+    detector = None
+    if args.detector is not None:
+        from avtrack.detect import load_detector
+
+        detector = load_detector(args.detector)
+    out = args.output
+    if out.exists() and not out.is_dir():
+        raise InputError("output exists and is not a directory", out)
+    t0 = time.perf_counter()
+    with progress.activity(f"detecting and tracking {seq.n_frames} frames", args.quiet):
+        try:
+            res, _ = track_av163(seq, args.video, detector, config=config)
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+    elapsed = time.perf_counter() - t0
+    out.mkdir(parents=True, exist_ok=True)
+    write_mot(out / "tracks.txt", res.tracks)
+    _write_text(out / "persons.csv", res.persons.to_csv())
+    write_rttm(out / "speech.rttm", res.speech)
+    if not args.quiet:
+        duration = seq.n_frames / res.fps
+        print(f"AV16.3 seq {args.seq} cam {args.cam}: tracked {seq.n_frames} frames "
+              f"({duration:.1f} s): {len(np.unique(res.persons.ids))} persons, "
+              f"{len(res.tracks)} boxes, {len(res.speech)} speaker turns of "
+              f"{len({s.speaker for s in res.speech})} speakers -> {out} ({elapsed:.1f} s, "
+              f"real-time factor {elapsed / max(duration, 1e-9):.2f})")
+    return 0
 
 
 def run_direction(args: argparse.Namespace) -> int:

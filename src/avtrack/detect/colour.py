@@ -164,8 +164,9 @@ class ColourTemplateDetector:
         return frac
 
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """At most one box per template: ``(M, 4)`` (left, top, width, height) and ``(M,)``
-        Bhattacharyya coefficients; row order follows the templates."""
+        """At most one box per template, no two overlapping by more than half a window:
+        ``(M, 4)`` (left, top, width, height) and ``(M,)`` Bhattacharyya coefficients; row
+        order follows the templates."""
         img = np.asarray(frame)
         if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
             raise ValueError(f"frame must be (height, width, 3) uint8 BGR, got {img.shape} "
@@ -178,11 +179,27 @@ class ColourTemplateDetector:
         if self.min_foreground > 0:
             fg = self._foreground(img, rho.shape[:2])
             rho = np.where(fg[..., None] >= self.min_foreground, rho, 0.0)
-        flat = rho.reshape(-1, rho.shape[2])
-        best = flat.argmax(axis=0)
-        score = flat[best, np.arange(flat.shape[1])]
-        keep = score >= self.min_similarity
-        i, j = np.unravel_index(best[keep], rho.shape[:2])
+        # One window per template, and no two templates on one person: the templates take
+        # their best windows in order of similarity, each away from the windows already taken
+        # (a person is not two people; an absent person's template would otherwise land on
+        # whoever looks most like them).
+        rows, cols = rho.shape[:2]
+        ii, jj = np.mgrid[0:rows, 0:cols]
+        free = np.ones((rows, cols), dtype=bool)
+        found: list[tuple[int, int, int, float]] = []
+        todo = list(range(rho.shape[2]))
+        while todo:
+            masked = np.where(free[..., None], rho[..., todo], -1.0).reshape(-1, len(todo))
+            best = masked.argmax(axis=0)
+            score = masked[best, np.arange(len(todo))]
+            k = int(np.argmax(score))
+            if score[k] < self.min_similarity:
+                break
+            i, j = np.unravel_index(best[k], (rows, cols))
+            found.append((todo.pop(k), int(i), int(j), float(score[k])))
+            free &= (np.abs(ii - i) >= wh // 2 + 1) | (np.abs(jj - j) >= ww // 2 + 1)
+        found.sort()
         c = self.cell
-        boxes = np.column_stack([j * c, i * c, np.full(i.size, ww * c), np.full(i.size, wh * c)])
-        return boxes.astype(float), score[keep].astype(float)
+        boxes = np.array([[j * c, i * c, ww * c, wh * c] for _, i, j, _ in found],
+                         dtype=float).reshape(-1, 4)
+        return boxes, np.array([f[3] for f in found], dtype=float)

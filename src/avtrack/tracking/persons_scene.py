@@ -218,6 +218,13 @@ def track_persons(
         cat["side"].astype(np.int64),
     )
     keep = person_ids >= 0  # a person merged away in the frame its track was linked
+    # One box per person and frame (a MOT result never repeats an id in a frame): when two
+    # visual tracks stand for one person, the tracker used the first; so does the output.
+    key = vis.frames.astype(np.int64) * (int(person_ids.max(initial=0)) + 2) + person_ids
+    _, first = np.unique(np.where(keep, key, -1 - np.arange(len(key))), return_index=True)
+    dup = np.ones(len(key), dtype=bool)
+    dup[first] = False
+    keep &= ~dup
     tracks = MOTData(vis.frames[keep], person_ids[keep], vis.boxes[keep], vis.scores[keep])
     # speaking flag of each box: its person's at that frame
     thr = tracker.config.speaking_threshold
