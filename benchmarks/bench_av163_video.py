@@ -117,6 +117,25 @@ def vem_scores(visual: list[np.ndarray], seq) -> tuple[float, float]:
             ospa_sequence(pos, av163_truth(seq), 50.0, 2)[:, 0].mean())
 
 
+def persons_scores(folder: Path, seq) -> tuple[float, float, int, int, float]:
+    """``track-av`` on the video: OSPA-T and OSPA of persons.csv's image positions (persons
+    in view), persons, speakers, seconds."""
+    from avtrack.av.av163 import track_av163
+
+    t0 = time.perf_counter()
+    res, _ = track_av163(seq, folder / VIDEO)
+    elapsed = time.perf_counter() - t0
+    P = res.persons
+    est, pos = [], []
+    for f in seq.frames:
+        m = (P.frames == f) & P.in_view & np.all(np.isfinite(P.pixels), axis=1)
+        est.append((P.ids[m], P.pixels[m]))
+        pos.append(P.pixels[m])
+    return (ospa_t(est, labelled_truth(seq), 65.0, 2, 25.0).mean,
+            ospa_sequence(pos, av163_truth(seq), 50.0, 2)[:, 0].mean(),
+            len(np.unique(P.ids)), len({s.speaker for s in res.speech}), elapsed)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=REPO_ROOT / ".." / "shared" / "data" / "av16.3")
@@ -143,6 +162,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"# seed {s}: " + ", ".join(f"{k[0]}/{k[1]} {v[-1][0]:.2f}"
                                           for k, v in rows.items()), file=sys.stderr, flush=True)
     rows[("video", "vem")] = [vem_scores(video_pts, seq)]
+    av = persons_scores(args.data, seq)
     print(f"Machine: {platform.processor() or platform.machine()}, Python "
           f"{platform.python_version()}, NumPy {np.__version__}, one BLAS thread; "
           f"{args.seeds} seeds; AV16.3 sequence 30 camera 1 ({seq.n_frames} frames)\n")
@@ -152,6 +172,9 @@ def main(argv: list[str] | None = None) -> int:
     for (source, name), v in sorted(rows.items()):
         a = np.array(v)
         print(f"| {source} | {label[name]} | {a[:, 0].mean():.2f} | {a[:, 1].mean():.2f} |")
+    print(f"| video | track-av (persons.csv, in view) | {av[0]:.2f} | {av[1]:.2f} |")
+    print(f"\ntrack-av: {av[2]} persons, {av[3]} speakers (2 people in the sequence), "
+          f"{av[4]:.1f} s for {duration:.1f} s of video (detection, histograms, tracking)")
     print(f"\nColour-template detector: recall (20 px) {recall:.3f}, points within 40 px of a "
           f"person {precision:.3f}; decode + detect {t_detect:.1f} s for {duration:.1f} s of "
           f"video ({t_detect / duration:.2f} x real time, {seq.n_frames / t_detect:.1f} "

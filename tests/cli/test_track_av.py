@@ -218,3 +218,63 @@ def test_track_av_recording_bad_input(main, tmp_path, capsys):
                  str(scene_dir / "detections.txt")]) == 2
     assert "missing field" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+# --------------------------------------------------------------------------- AV16.3
+
+
+def test_track_av_on_an_av163_folder(main, tmp_path, capsys):
+    """A small AV16.3-shaped folder and a 360 x 288 video: the three outputs, one box per
+    person and frame; then what does not fit, in one line each."""
+    from tests.cli.test_track_phd import write_av163_video
+    from tests.io.test_av163 import write_av163
+
+    folder = write_av163(tmp_path / "av", seq=7, cam=2, n_frames=30)
+    video = write_av163_video(tmp_path / "v.avi")
+    out = tmp_path / "out"
+    base = ["track-av", str(folder), "--seq", "7", "--cam", "2"]
+    assert main([*base, "--video", str(video), "-o", str(out)]) == 0
+    assert "AV16.3 seq 7 cam 2: tracked 30 frames" in capsys.readouterr().out
+    for name in ("tracks.txt", "persons.csv", "speech.rttm"):
+        assert (out / name).is_file()
+    tracks = read_mot(out / "tracks.txt", kind="result")
+    pairs = list(zip(tracks.frames.tolist(), tracks.ids.tolist(), strict=True))
+    assert len(pairs) == len(set(pairs))
+    bad = [
+        ([*base, "-o", str(tmp_path / "o1")], "give the folder, --seq N, --cam C and --video"),
+        ([*base, "--video", str(write_av163_video(tmp_path / "short.avi", n_frames=12)), "-o",
+          str(tmp_path / "o2")], "the video has 12 frames, sequence 7 camera 2 has 30"),
+        ([*base, "--video", str(video), "--doa", str(video), "-o", str(tmp_path / "o3")],
+         "--doa does not apply to AV16.3"),
+        ([*base, "--video", str(video), "--no-audio", "-o", str(tmp_path / "o4")],
+         "AV16.3 is tracked with --model direction, with audio"),
+    ]
+    for argv, message in bad:
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and message in err, err
+        assert not any((tmp_path / f"o{k}").exists() for k in range(1, 5))
+
+
+@pytest.mark.slow
+def test_track_av_on_av163_sequence_30_from_its_video(main, shared_data, tmp_path, capsys):
+    """The real recording: both people get speaker turns and image positions inside the
+    image; tracks.txt is a valid MOT result."""
+    from avtrack.io.persons import read_persons_csv
+
+    folder = shared_data / "av16.3"
+    video = folder / "seq30-2p-1101_cam1_divx_audio.avi"
+    if not video.is_file():
+        pytest.skip(f"{video} not in the shared data")
+    out = tmp_path / "av30"
+    assert main(["track-av", str(folder), "--seq", "30", "--cam", "1", "--video", str(video),
+                 "-o", str(out), "-q"]) == 0
+    speakers = {s.speaker for s in read_rttm(out / "speech.rttm")}
+    assert len(speakers) >= 2
+    persons = read_persons_csv(out / "persons.csv", fps=25.0)
+    px = persons.pixels[np.all(np.isfinite(persons.pixels), axis=1)]
+    assert len(px) > 300
+    assert np.all((px >= 0) & (px <= [360, 288]))
+    tracks = read_mot(out / "tracks.txt", kind="result")
+    pairs = list(zip(tracks.frames.tolist(), tracks.ids.tolist(), strict=True))
+    assert len(pairs) == len(set(pairs))

@@ -241,3 +241,14 @@ def test_track_persons_never_repeats_an_id_in_a_frame():
     pairs = list(zip(res.tracks.frames.tolist(), res.tracks.ids.tolist(), strict=True))
     assert len(pairs) == len(set(pairs))
     assert len(pairs) >= 0.9 * len({r[0] for r in rows})  # about one box per frame seen
+
+
+def test_elevation_stays_a_latitude():
+    """A person whose elevation moves up at 3 degrees per frame from 89 degrees (a camera far
+    from the array sees them almost over it) is reported at most at 90, and is at most 90."""
+    tracker = PersonTracker(geometry(60.0), PersonConfig(), 25.0)
+    tracker.step(np.array([1]), np.array([[300.0, 200.0, 40.0, 54.0]]), None, np.zeros(0))
+    assert tracker.n_persons == 1
+    tracker.mu[:, 1], tracker.mu[:, 3] = 89.0, 3.0
+    out = tracker.step(np.zeros(0, int), np.zeros((0, 4)), None, np.zeros(0))
+    assert out.elevation_deg[0] == 90.0 and tracker.mu[0, 1] == 90.0

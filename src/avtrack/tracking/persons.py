@@ -551,6 +551,8 @@ class PersonTracker:
         # --- output -------------------------------------------------------------------------
         az = wrap_deg(self.mu[:, 0])
         self.mu[:, 0] = az
+        # elevation is a latitude: the linear-Gaussian update can carry it past a pole
+        self.mu[:, 1] = np.clip(self.mu[:, 1], -90.0, 90.0)
         el = self.mu[:, 1]
         px, inside = self.geometry.directions_to_pixels(az, el, self.distance)
         px = np.where(inside[:, None], px, np.nan)
