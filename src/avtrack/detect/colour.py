@@ -197,7 +197,7 @@ class ColourTemplateDetector:
                 break
             i, j = np.unravel_index(best[k], (rows, cols))
             found.append((todo.pop(k), int(i), int(j), float(score[k])))
-            free &= (np.abs(ii - i) >= wh // 2 + 1) | (np.abs(jj - j) >= ww // 2 + 1)
+            free &= (np.abs(ii - i) >= wh) | (np.abs(jj - j) >= ww)
         found.sort()
         c = self.cell
         boxes = np.array([[j * c, i * c, ww * c, wh * c] for _, i, j, _ in found],

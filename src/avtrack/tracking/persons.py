@@ -555,6 +555,10 @@ class PersonTracker:
         self.mu[:, 1] = np.clip(self.mu[:, 1], -90.0, 90.0)
         el = self.mu[:, 1]
         px, inside = self.geometry.directions_to_pixels(az, el, self.distance)
+        # Where the camera looks and has not seen a person for exclusion_s, the person is not
+        # (the exclusion above moves them out of an azimuth wedge, which only describes the
+        # view of a camera at the array; a camera metres away needs this too).
+        inside &= self.unseen_run < c.exclusion_s * self.fps
         px = np.where(inside[:, None], px, np.nan)
         in_view = inside & (px[:, 0] >= self.fov[0]) & (px[:, 0] <= self.fov[1])
         alive = set(self.ids.tolist())
