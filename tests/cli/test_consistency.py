@@ -189,3 +189,34 @@ def test_progress_bar_on_a_terminal_only(doa_csv, tmp_path, terminal, capsys, mo
     monkeypatch.setattr(progress, "stderr_is_terminal", lambda: False)  # a log file
     assert main(["track-audio", "--doa", str(doa_csv), "-o", str(out)]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_top_level_help_imports_no_command():
+    """``avtrack --help`` lists every command from :data:`COMMAND_HELP` without importing the
+    commands (and NumPy, SciPy, OpenCV with them): it answers at once."""
+    import subprocess
+    import sys
+
+    code = ("import sys\nfrom avtrack.cli.main import main\ntry:\n    main(['--help'])\n"
+            "except SystemExit:\n    pass\n"
+            "heavy = [m for m in sys.modules if m.split('.')[0] in "
+            "('numpy', 'scipy', 'cv2', 'matplotlib')]\nprint('HEAVY', heavy)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert "HEAVY []" in out
+    for name in ("track-mot", "track-av", "eval", "bench"):
+        assert f"\n    {name}" in out
+
+
+def test_command_help_lines_match_the_modules():
+    import argparse
+    import importlib
+
+    from avtrack.cli.main import COMMAND_HELP, COMMAND_MODULES, command_name
+
+    for module in COMMAND_MODULES:
+        parser = argparse.ArgumentParser()
+        sub = parser.add_subparsers()
+        importlib.import_module(f"avtrack.cli.{module}").register(sub)
+        helps = {a.dest: a.help for a in sub._choices_actions}
+        assert helps[command_name(module)] == COMMAND_HELP[command_name(module)], module

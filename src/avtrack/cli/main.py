@@ -30,7 +30,32 @@ COMMAND_MODULES = (
 )
 
 
-def build_parser() -> argparse.ArgumentParser:
+#: One line of help per command, for ``avtrack --help`` without importing every command
+#: (and NumPy, SciPy ... with them); a test keeps these equal to what the modules register.
+COMMAND_HELP = {
+    "demo": "simulate a meeting, track and diarize it, print the scores, write a report",
+    "track-mot": "track MOTChallenge detections (visual VEM tracker, OVBT)",
+    "simulate": "simulate an audio-visual scene (room acoustics, camera, detections, ground "
+                "truth)",
+    "localize": "frame-wise multi-speaker localization from a microphone-array WAV",
+    "track-audio": "acoustic multi-speaker tracking (localization + VEM tracker)",
+    "stream": "localize and track speakers on a live WAV stream (stdin or a file)",
+    "track-av": "audio-visual tracking and diarization of a scene directory",
+    "robot-sim": "simulate a moving robot head tracking and servoing people (thesis §3.2)",
+    "track-phd": "audio-visual SMC-PHD tracking of AV16.3 (particle flow, seed 004)",
+    "eval": "score a result against ground truth",
+    "bench": "run a suite of scenes x tasks x parameters (locally or on a Dask cluster)",
+}
+
+
+def command_name(module: str) -> str:
+    """The sub-command a module of :data:`COMMAND_MODULES` registers."""
+    return module.removesuffix("_cmd").replace("_", "-")
+
+
+def build_parser(only: tuple[str, ...] | None = None) -> argparse.ArgumentParser:
+    """The command-line parser. ``only``: the modules to import and register in full (the
+    others get a stub with their one-line help); default all of them."""
     parser = argparse.ArgumentParser(
         prog="avtrack",
         formatter_class=HelpFormatter,
@@ -40,8 +65,18 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"avtrack {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
-        importlib.import_module(f"avtrack.cli.{name}").register(sub)
+        if only is None or name in only:
+            importlib.import_module(f"avtrack.cli.{name}").register(sub)
+        else:
+            sub.add_parser(command_name(name), help=COMMAND_HELP.get(command_name(name)),
+                           add_help=False)
     return parser
+
+
+def _modules_for(argv: list[str]) -> tuple[str, ...]:
+    """The command module that ``argv`` calls (none for ``avtrack --help`` and the like)."""
+    first = next((a for a in argv if not a.startswith("-")), None)
+    return tuple(m for m in COMMAND_MODULES if command_name(m) == first)
 
 
 #: Arguments that name files a command writes.
@@ -70,7 +105,8 @@ def refuse_output_over_input(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_modules_for(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()
