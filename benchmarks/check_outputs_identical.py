@@ -9,7 +9,9 @@ with a stored manifest and lists every file that differs, is missing or is new.
     python benchmarks/check_outputs_identical.py --work /tmp/out-b --check manifest.json
 
 Figures (PNG) are left out, being renderer-dependent; timings printed on the terminal are not
-files and so are not compared. Steps that need the shared data (``../shared/data`` or
+files and so are not compared. A WAV file is hashed by its sample rate and samples (libsndfile
+stamps the time into the PEAK chunk of float WAVs), and the work directory's path is taken out
+of text files (the JSON scores name their input files). Steps that need the shared data (``../shared/data`` or
 ``AVTRACK_SHARED_DATA``) are skipped, saying so, where it is absent.
 """
 
@@ -99,12 +101,27 @@ def run_steps(work: Path) -> None:
         print(f"ran {name}")
 
 
+def file_bytes(path: Path, work: Path) -> bytes:
+    """What is compared of ``path``: its bytes, a WAV's rate and samples, a text file's bytes
+    with ``work`` replaced by ``{work}``."""
+    if path.suffix == ".wav":
+        import soundfile
+
+        data, fs = soundfile.read(path, dtype="float64", always_2d=True)
+        return str(fs).encode() + data.tobytes()
+    raw = path.read_bytes()
+    if path.suffix in (".json", ".csv", ".txt", ".yaml", ".md", ".rttm"):
+        raw = raw.replace(str(work).encode(), b"{work}")
+    return raw
+
+
 def hash_tree(work: Path) -> dict[str, str]:
     """SHA-256 of every file under ``work`` but figures, by path relative to ``work``."""
     out = {}
     for p in sorted(work.rglob("*")):
         if p.is_file() and p.suffix != ".png":
-            out[p.relative_to(work).as_posix()] = hashlib.sha256(p.read_bytes()).hexdigest()
+            digest = hashlib.sha256(file_bytes(p, work)).hexdigest()
+            out[p.relative_to(work).as_posix()] = digest
     return out
 
 
@@ -114,8 +131,10 @@ def main(argv: list[str] | None = None) -> int:
     mode = ap.add_mutually_exclusive_group(required=True)
     mode.add_argument("--write", type=Path, metavar="MANIFEST", help="store the hashes")
     mode.add_argument("--check", type=Path, metavar="MANIFEST", help="compare with stored hashes")
+    ap.add_argument("--no-run", action="store_true", help="hash what --work holds already")
     args = ap.parse_args(argv)
-    run_steps(args.work)
+    if not args.no_run:
+        run_steps(args.work)
     hashes = hash_tree(args.work)
     if args.write:
         args.write.write_text(json.dumps(hashes, indent=1, sort_keys=True) + "\n")
