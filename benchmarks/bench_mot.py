@@ -147,7 +147,7 @@ def _reset_sort_ids() -> None:
 
 
 def avtrack_runner(dets: MOTData) -> tuple[Callable[[], Any], Callable[[Any], MOTData]]:
-    from avtrack.tracking.ovbt import track_mot
+    from avtrack.visual.ovbt import track_mot
 
     def loop() -> MOTData:
         return track_mot(dets)

@@ -15,7 +15,7 @@ averaged over the frames of a sequence, then over the seeds (Table 1); the mean 
 sample size, the number of resamplings and the running time of the filter steps (Table 2, for
 sequence 45 camera 1 as in the seed, plus the means over the six pairs).
 
-Optionally (``--vem``) a third row: the visual VEM tracker (:class:`avtrack.tracking.ovbt.
+Optionally (``--vem``) a third row: the visual VEM tracker (:class:`avtrack.visual.ovbt.
 OVBTracker`, thesis §3.1) on the same visual measurements, as fixed-size face boxes (no audio).
 
 Usage::
@@ -55,7 +55,7 @@ FACE_BOX = (18.0, 25.0)  # median face box of seq45 cam1 (w, h), for the VEM row
 
 def run_vem(visual: list[np.ndarray], n_frames: int) -> tuple[list[np.ndarray], float]:
     """The OVBT visual VEM tracker on fixed-size boxes around the visual points."""
-    from avtrack.tracking.ovbt import OVBTracker
+    from avtrack.visual.ovbt import OVBTracker
 
     w, h = FACE_BOX
     tracker = OVBTracker(image_size=(360, 288))

@@ -42,8 +42,8 @@ import numpy as np  # noqa: E402
 import pyroomacoustics as pra  # noqa: E402
 
 from avtrack.io.base import atomic_write  # noqa: E402
+from avtrack.io.scenario import validate_scenario  # noqa: E402
 from avtrack.simulate.library import named_scenario  # noqa: E402
-from avtrack.simulate.scenario import validate_scenario  # noqa: E402
 from avtrack.simulate.scene import scene_array, simulate_scene, write_scene  # noqa: E402
 
 

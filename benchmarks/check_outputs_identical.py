@@ -11,7 +11,8 @@ with a stored manifest and lists every file that differs, is missing or is new.
 Figures (PNG) are left out, being renderer-dependent; timings printed on the terminal are not
 files and so are not compared. A WAV file is hashed by its sample rate and samples (libsndfile
 stamps the time into the PEAK chunk of float WAVs), and the work directory's path is taken out
-of text files (the JSON scores name their input files). Steps that need the shared data (``../shared/data`` or
+of text files (the JSON scores name their input files). Steps that need the shared data
+(``../shared/data`` or
 ``AVTRACK_SHARED_DATA``) are skipped, saying so, where it is absent.
 """
 
@@ -141,7 +142,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{len(hashes)} files hashed into {args.write}")
         return 0
     stored = json.loads(args.check.read_text())
-    bad = [f"differs: {k}" for k in sorted(stored.keys() & hashes.keys()) if stored[k] != hashes[k]]
+    common = sorted(stored.keys() & hashes.keys())
+    bad = [f"differs: {k}" for k in common if stored[k] != hashes[k]]
     bad += [f"missing: {k}" for k in sorted(stored.keys() - hashes.keys())]
     bad += [f"new: {k}" for k in sorted(hashes.keys() - stored.keys())]
     for line in bad:

@@ -7,13 +7,14 @@ from pathlib import Path
 
 import pytest
 
-from avtrack.cli.base import add_config_option, build_config, load_config
+from avtrack.av.vavit import VAVITConfig
+from avtrack.cli.base import add_config_option
+from avtrack.config import build_config, load_config
 from avtrack.errors import InputError
 from avtrack.localize import LOCALIZERS
 from avtrack.phd import PHDConfig
-from avtrack.robot.simulate import RobotSimConfig
-from avtrack.tracking.ovbt import OVBTConfig
-from avtrack.tracking.vavit import VAVITConfig
+from avtrack.simulate.robot import RobotSimConfig
+from avtrack.visual.ovbt import OVBTConfig
 
 
 def test_nested_mapping_overrides_only_the_fields_it_names():

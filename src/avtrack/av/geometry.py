@@ -8,7 +8,7 @@ that the camera projects.
 
 Frames. Room frame: metres, z up. The array sits at ``array_position`` with its x axis turned
 ``array_yaw_deg`` about room z (the convention of :mod:`avtrack.simulate.scene`). The camera is
-a :class:`~avtrack.simulate.camera.PinholeCamera` (room frame, OpenCV axes). A point ``X``
+a :class:`~avtrack.io.camera.PinholeCamera` (room frame, OpenCV axes). A point ``X``
 (room) has array coordinates :math:`A = R_z(-\psi)(X - P)` and
 
 .. math::
@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avtrack.simulate.camera import PinholeCamera
+from avtrack.io.camera import PinholeCamera
 
 #: Head height in metres assumed when turning a head box's pixel height into a depth
 #: (the simulator's head boxes are 0.18 x 0.24 m).

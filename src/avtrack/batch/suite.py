@@ -33,19 +33,13 @@ import numpy as np
 import yaml
 
 from avtrack.errors import InputError
+from avtrack.registry import Registry
 
 #: task name -> function(item) -> dict of scores (registered with @register_task).
-TASKS: dict[str, Callable[[dict], dict[str, Any]]] = {}
+TASKS: Registry[Callable[[dict], dict[str, Any]]] = Registry("batch task")
 
-
-def register_task(name: str) -> Callable:
-    """Register ``fn(item) -> scores`` as the task ``name``."""
-
-    def deco(fn: Callable[[dict], dict[str, Any]]) -> Callable[[dict], dict[str, Any]]:
-        TASKS[name] = fn
-        return fn
-
-    return deco
+#: Decorator registering ``fn(item) -> scores`` as a task under a name.
+register_task = TASKS.register
 
 
 #: Suites usable by name (``avtrack bench smoke``).
@@ -147,8 +141,8 @@ def _resolve_input(spec: Any, base: Path, path, field: str) -> str:
 
 def materialise(spec: str, workdir: Path) -> Path:
     """The folder of an input: itself, or a named scene simulated into ``workdir``."""
+    from avtrack.io.scenario import validate_scenario
     from avtrack.simulate.library import SCENARIOS, named_scenario
-    from avtrack.simulate.scenario import validate_scenario
     from avtrack.simulate.scene import simulate_scene, write_scene
 
     name = spec.split(":")[0]
@@ -194,10 +188,11 @@ def _short(spec: str) -> str:
 @register_task("track-mot")
 def _task_track_mot(item: dict) -> dict[str, Any]:
     """OVBT on a MOTChallenge sequence or a scene directory's detections; MOT scores."""
+    from avtrack.config import build_config
     from avtrack.io.datasets import find_seqinfo, read_seqinfo
     from avtrack.io.mot import read_mot
     from avtrack.metrics.mot import evaluate_mot
-    from avtrack.tracking.ovbt import OVBTConfig, track_mot
+    from avtrack.visual.ovbt import OVBTConfig, track_mot
 
     folder = Path(item["folder"])
     params = dict(item["params"])
@@ -219,7 +214,7 @@ def _task_track_mot(item: dict) -> dict[str, Any]:
         size = (seq["width"], seq["height"]) if "width" in seq else (640, 480)
         app = None
         bench = "MOT15"
-    res = track_mot(det, app, OVBTConfig.from_dict(params), image_size=size)
+    res = track_mot(det, app, build_config(OVBTConfig, params), image_size=size)
     s = evaluate_mot(gt, res, benchmark=bench).as_dict()
     return {k: s[k] for k in ("MOTA", "MOTP", "IDF1", "HOTA", "FP", "FN", "IDSW")}
 

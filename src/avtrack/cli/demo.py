@@ -20,7 +20,7 @@ from avtrack.io.base import atomic_write
 from avtrack.io.datasets import find_shared_data
 from avtrack.io.mot import read_mot, write_mot
 from avtrack.metrics.mot import evaluate_mot, format_table
-from avtrack.tracking.ovbt import track_mot
+from avtrack.visual.ovbt import track_mot
 
 EXAMPLES = """\
 examples:

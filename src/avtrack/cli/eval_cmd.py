@@ -317,10 +317,11 @@ def run_der(args: argparse.Namespace) -> int:
 
 
 def run_persons(args: argparse.Namespace) -> int:
+    from avtrack.av.vavit import fov_strip
     from avtrack.io.doa import read_doa_csv
     from avtrack.io.persons import read_persons_csv
+    from avtrack.io.scene import load_scene
     from avtrack.metrics.persons import offscreen_direction_error, truth_per_frame
-    from avtrack.tracking.vavit import fov_strip, load_scene
 
     if not 0 < args.fov_fraction <= 1:
         raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")

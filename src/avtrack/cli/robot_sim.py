@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.config import load_config
 from avtrack.errors import InputError
-from avtrack.robot.simulate import (
+from avtrack.simulate.robot import (
     ROBOT_SCENARIOS,
     RobotSimConfig,
     simulate_robot,

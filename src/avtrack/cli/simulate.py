@@ -10,13 +10,13 @@ from pathlib import Path
 from avtrack.cli import progress
 from avtrack.cli.base import HelpFormatter, add_common, add_config_option
 from avtrack.errors import InputError
-from avtrack.simulate.library import SCENARIOS, named_scenario
-from avtrack.simulate.scenario import (
+from avtrack.io.scenario import (
     SCENARIO_REFERENCE,
     dump_scenario,
     load_scenario,
     validate_scenario,
 )
+from avtrack.simulate.library import SCENARIOS, named_scenario
 
 EXAMPLES = f"""\
 named scenarios: {", ".join(SCENARIOS)}

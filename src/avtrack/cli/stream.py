@@ -9,13 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from avtrack.cli.base import (
-    HelpFormatter,
-    add_array_option,
-    add_common,
-    build_config,
-    read_config_mapping,
-)
+from avtrack.cli.base import HelpFormatter, add_array_option, add_common, read_config_mapping
+from avtrack.config import build_config
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOA_HEADER, format_doa_row
@@ -48,8 +43,8 @@ video detections).
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from avtrack.doa.base import TRACKERS
     from avtrack.localize import LOCALIZERS
-    from avtrack.tracking.doa_base import registered_trackers
 
     p = subparsers.add_parser(
         "stream",
@@ -70,7 +65,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--tracker",
-        choices=sorted(registered_trackers()),
+        choices=sorted(TRACKERS),
         default="vonmises",
         help="default: vonmises",
     )
@@ -98,11 +93,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def load_stream_config(path: Path | None, method: str, tracker: str) -> tuple[object, object]:
     """The localizer's and the tracker's Config from the ``--config`` file (defaults
     without one); errors name the field, e.g. ``FILE: tracker.kappa_birth: ...``."""
+    from avtrack.doa.base import TRACKERS
     from avtrack.localize import LOCALIZERS
-    from avtrack.tracking.doa_base import registered_trackers
 
     loc_cls = LOCALIZERS[method].Config
-    trk_cls = registered_trackers()[tracker].Config
+    trk_cls = TRACKERS[tracker].Config
     if path is None:
         return loc_cls(), trk_cls()
     values = read_config_mapping(path, "sections 'localizer' and 'tracker'")

@@ -9,12 +9,13 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
 from avtrack.io.base import atomic_write
 from avtrack.metrics.ospa import ospa_sequence
-from avtrack.phd import PHD_FILTERS, PHDConfig, PHDResult
+from avtrack.phd import PHD_FILTERS, PHDConfig
 from avtrack.phd.likelihood import (
     VISUAL_SOURCES,
     av163_frames,
@@ -103,50 +104,6 @@ def write_tracks(path: Path, rows: np.ndarray) -> None:
             fh.write(f"{int(f)},{int(i)},{x:.2f},{y:.2f}\n")
 
 
-def plot_tracks(
-    path: Path,
-    result: PHDResult,
-    truth: list[np.ndarray],
-    frames: np.ndarray,
-    ospa: np.ndarray,
-    title: str,
-) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
-    gt = np.vstack([t for t in truth if len(t)] or [np.zeros((0, 2))])
-    ax.scatter(gt[:, 0], gt[:, 1], s=2, c="0.7", label="ground truth")
-    rows = result.rows(frames)
-    if len(rows):
-        ids = rows[:, 1]
-        sc = ax.scatter(
-            rows[:, 2],
-            rows[:, 3],
-            s=3,
-            c=np.where(ids >= 0, ids % 20, -1),
-            cmap="tab20",
-            label="estimates",
-        )
-        sc.set_clim(-1, 19)
-    ax.set_xlim(0, 360)
-    ax.set_ylim(288, 0)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (px)")
-    ax.set_ylabel("y (px)")
-    ax.legend(loc="lower right", fontsize=8)
-    ax.set_title(title)
-    ax2.plot(frames, ospa[:, 0], lw=0.8, label="OSPA")
-    ax2.plot(frames, ospa[:, 2], lw=0.6, label="cardinality part")
-    ax2.set_xlabel("frame")
-    ax2.set_ylabel(f"OSPA (px, p={OSPA_ORDER}, c={OSPA_CUTOFF:g})")
-    ax2.legend(fontsize=8)
-    fig.tight_layout()
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format=path.suffix.lstrip(".") or "png", dpi=120)
-    plt.close(fig)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -166,13 +123,17 @@ def run(args: argparse.Namespace) -> int:
     truth = av163_truth(seq)
     ospa = ospa_sequence(result.positions(), truth, OSPA_CUTOFF, OSPA_ORDER)
     if args.plot:
-        plot_tracks(
+        from avtrack.viz.plots import plot_phd_tracks
+
+        plot_phd_tracks(
             args.plot,
             result,
             truth,
             seq.frames,
             ospa,
             f"{args.filter.upper()} seq {args.seq} cam {args.cam} ({used})",
+            OSPA_ORDER,
+            OSPA_CUTOFF,
         )
     if not args.quiet:
         print(

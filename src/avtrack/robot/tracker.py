@@ -12,10 +12,10 @@ left-camera frame, face box size in pixels, velocity in m/s), dynamics
 with the control term :math:`C_{tn}` of :mod:`avtrack.robot.egomotion` (eq. 3.45), and
 observations :math:`o_{tm} = [X_{tm}, W_{tm}]` from the stereo pair (:func:`stereo_faces`)
 with full covariances :math:`\Phi_{tm}` and an appearance descriptor. Each frame runs the VEM
-engine (:class:`~avtrack.tracking.engine.VEMEngine`): E-Z as eq. 3.20, E-S as eqs.
+engine (:class:`~avtrack.vem.engine.VEMEngine`): E-Z as eq. 3.20, E-S as eqs.
 3.37–3.38 -- the engine's prediction :math:`(D\mu + C, \Lambda + D\Gamma D^\top)` with the
 control term is exactly the prior part of eqs. 3.37–3.38 -- then, as in
-:class:`~avtrack.tracking.ovbt.OVBTracker`, the visibility HMM (eqs. 3.31–3.32), death, and
+:class:`~avtrack.visual.ovbt.OVBTracker`, the visibility HMM (eqs. 3.31–3.32), death, and
 birth from smooth sequences of unassigned observations (eq. 3.30, window :math:`T_{new}=4`).
 
 Targets that the head has turned away from stay in the engine: their predicted position
@@ -29,24 +29,24 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
-from avtrack.models.appearance import APPEARANCE_MODELS, AppearanceLikelihood
-from avtrack.models.base import ObservationModel
-from avtrack.models.dynamics import constant_velocity_transition
 from avtrack.robot.base import OBS_DIM, STATE_DIM, FaceObservations, HeadMotion, TrackedPeople
 from avtrack.robot.egomotion import control_vector, ego_displacement_scale
 from avtrack.robot.head import RobotHead
-from avtrack.tracking.birth import (
+from avtrack.vem.birth import (
     birth_candidates,
     born_states,
     consume_pool,
     select_births,
 )
-from avtrack.tracking.engine import VEMEngine
-from avtrack.tracking.visibility import visibility_filter
+from avtrack.vem.dynamics import constant_velocity_transition
+from avtrack.vem.engine import VEMEngine
+from avtrack.vem.model import ObservationModel
+from avtrack.vem.visibility import visibility_filter
+from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
 
 _LOG_2PI = float(np.log(2 * np.pi))
 CONTROL_MODES = ("jacobian", "exact", "none")
@@ -55,7 +55,7 @@ CONTROL_MODES = ("jacobian", "exact", "none")
 class FaceObservationModel(ObservationModel):
     r"""Gaussian 3-D face likelihood with full covariances, clutter and appearance.
 
-    E-Z (thesis eq. 3.20–3.21, as :class:`~avtrack.models.visual.BoxObservationModel` but
+    E-Z (thesis eq. 3.20–3.21, as :class:`~avtrack.visual.model.BoxObservationModel` but
     with :math:`P = [I_5\ 0]` on ``[X, W, Ẋ]`` and a full :math:`\Phi_{tm}`):
 
     .. math::
@@ -277,17 +277,6 @@ class RobotTrackerConfig:
                 f"RobotTrackerConfig.appearance_update must be in [0, 1], got "
                 f"{self.appearance_update!r}"
             )
-
-    @classmethod
-    def from_dict(cls, values: dict) -> RobotTrackerConfig:
-        """Build from a mapping, rejecting unknown keys by name."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise ValueError(
-                f"unknown robot tracker parameter(s) {unknown}; known: {sorted(known)}"
-            )
-        return cls(**values)
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 ``avtrack simulate NAME -o DIR [--seed S] [--duration SECONDS]`` uses these. Each builder
 returns a raw scenario mapping (validated afterwards by
-:func:`avtrack.simulate.scenario.validate_scenario`); the seed decides the number of people,
+:func:`avtrack.io.scenario.validate_scenario`); the seed decides the number of people,
 where they are and how they move, so two seeds give two different scenes and one seed always
 gives the same one.
 
