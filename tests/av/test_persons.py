@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from avtrack.av.geometry import CameraGeometry, wrap_deg
+from avtrack.av.geometry import CameraGeometry
 from avtrack.av.persons import PersonConfig, PersonTracker
 from avtrack.av.persons_scene import audio_peaks, track_persons
 from avtrack.config import build_config
@@ -68,12 +68,6 @@ def test_direction_pixel_direction_round_trip(az, el, dist, dx, dz):
     assert a[0] == pytest.approx(az, abs=1e-6)
     assert e[0] == pytest.approx(el, abs=1e-6)
     assert r[0] == pytest.approx(dist, rel=1e-6)
-
-
-def test_wrap_deg():
-    assert wrap_deg(np.array([-180.0, 180.0, 190.0, -190.0, 540.0])).tolist() == [
-        180.0, 180.0, -170.0, 170.0, 180.0
-    ]
 
 
 # ------------------------------------------------------------------ the tracker

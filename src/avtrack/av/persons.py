@@ -76,7 +76,8 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from avtrack.av.geometry import DEFAULT_DISTANCE_M, CameraGeometry, wrap_deg
+from avtrack.av.geometry import DEFAULT_DISTANCE_M, CameraGeometry
+from avtrack.io.doa import wrap_azimuth
 from avtrack.visual.ovbt import OVBTConfig
 
 STATE_DIM = 4  # (azimuth, elevation, azimuth velocity, elevation velocity)
@@ -534,7 +535,7 @@ class PersonTracker:
             seen = np.r_[seen, np.zeros(born, dtype=bool)]
 
         # --- output -------------------------------------------------------------------------
-        az = wrap_deg(self.mu[:, 0])
+        az = wrap_azimuth(self.mu[:, 0])
         self.mu[:, 0] = az
         el = self.mu[:, 1]
         px, inside = self.geometry.directions_to_pixels(az, el, self.distance)
@@ -585,7 +586,7 @@ class PersonTracker:
                         dtype=np.int64)
         out = np.full(new.size, -1, dtype=np.int64)
         if cand.size:
-            dz = np.abs(wrap_deg(v_az[new][:, None] - self.mu[cand, 0][None, :]))
+            dz = np.abs(wrap_azimuth(v_az[new][:, None] - self.mu[cand, 0][None, :]))
             var = c.sigma_visual_deg**2 + self.gamma[cand, 0, 0][None, :]
             ok = dz <= c.link_gate_deg + 2.0 * np.sqrt(var)
             cost = dz**2 / var + np.log(var)  # -2 log N(a_v; μ^a, σ_v² + Γ^aa) + const
@@ -638,7 +639,7 @@ class PersonTracker:
         vis_vec = np.zeros((n, STATE_DIM))
         if vis_rows.size:
             obs = vis_obs.copy()
-            obs[:, 0] = pred_mu[vis_rows, 0] + wrap_deg(obs[:, 0] - pred_mu[vis_rows, 0])
+            obs[:, 0] = pred_mu[vis_rows, 0] + wrap_azimuth(obs[:, 0] - pred_mu[vis_rows, 0])
             vis_info[vis_rows, 0, 0] = vis_info[vis_rows, 1, 1] = 1.0 / var_v
             vis_vec[vis_rows, 0] = obs[:, 0] / var_v
             vis_vec[vis_rows, 1] = obs[:, 1] / var_v
@@ -652,7 +653,7 @@ class PersonTracker:
         mu, gamma = pred_mu, pred_gamma
         for _ in range(c.n_iter):
             # E-Z: α_kn ∝ π_n N(a_k; μ_n^a, σ_a² + Γ_n^aa); α_k0 ∝ π_0 / |A|
-            diff = wrap_deg(audio[:, None] - mu[None, :, 0])
+            diff = wrap_azimuth(audio[:, None] - mu[None, :, 0])
             var = var_a + gamma[None, :, 0, 0]
             ll = -0.5 * np.log(2 * np.pi * var) - 0.5 * diff**2 / var
             logits = np.concatenate([np.full((k_t, 1), self.log_clutter), ll], axis=1)
@@ -663,7 +664,7 @@ class PersonTracker:
             a_n = alpha[:, 1:]
             info = prior_info + vis_info
             info[:, 0, 0] += a_n.sum(axis=0) / var_a
-            unwrapped = pred_mu[None, :, 0] + wrap_deg(audio[:, None] - pred_mu[None, :, 0])
+            unwrapped = pred_mu[None, :, 0] + wrap_azimuth(audio[:, None] - pred_mu[None, :, 0])
             vec = prior_vec + vis_vec
             vec[:, 0] += (a_n * unwrapped).sum(axis=0) / var_a
             gamma = np.linalg.inv(info)
@@ -681,7 +682,7 @@ class PersonTracker:
         if n < 2:
             self.close_run = {}
             return speaking, seen
-        dz = np.abs(wrap_deg(self.mu[:, 0][:, None] - self.mu[:, 0][None, :]))
+        dz = np.abs(wrap_azimuth(self.mu[:, 0][:, None] - self.mu[:, 0][None, :]))
         runs: dict[tuple[int, int], int] = {}
         keep = np.ones(n, dtype=bool)
         for i, j in zip(*np.nonzero(np.triu(dz < c.merge_deg, 1)), strict=True):
@@ -722,28 +723,30 @@ class PersonTracker:
             return 0
         born = 0
         for a in unexplained:
-            frames_near = [p[np.abs(wrap_deg(p - a)) <= c.birth_radius_deg] for p in self.pool]
+            frames_near = [p[np.abs(wrap_azimuth(p - a)) <= c.birth_radius_deg] for p in self.pool]
             support = sum(1 for f in frames_near if f.size)
             if support < c.birth_min_frames:
                 continue
             near = np.concatenate(frames_near)
-            centre = float(a + np.median(wrap_deg(near - a)))
+            centre = float(a + np.median(wrap_azimuth(near - a)))
             if self.n_persons and np.min(
-                np.abs(wrap_deg(self.mu[:, 0] - centre))
+                np.abs(wrap_azimuth(self.mu[:, 0] - centre))
             ) < c.birth_separation_deg:
                 continue
             el = float(np.median(self.mu[:, 1])) if self.n_persons else 0.0
             pid, app = None, None
-            near_ended = [(abs(float(wrap_deg(v[1] - centre))), k) for k, v in self.ended.items()]
+            near_ended = [
+                (abs(float(wrap_azimuth(v[1] - centre))), k) for k, v in self.ended.items()
+            ]
             near_ended = [x for x in near_ended if x[0] <= c.revive_deg]
             if near_ended:  # someone who ended there lately speaks again
                 pid = min(near_ended)[1]
                 app = self.ended.pop(pid)[2]
-            self._add(wrap_deg(centre), el, DEFAULT_DISTANCE_M, 20.0, None, pid=pid)
+            self._add(wrap_azimuth(centre), el, DEFAULT_DISTANCE_M, 20.0, None, pid=pid)
             if app is not None and self.appearance is not None:
                 self.appearance[-1] = app
             self.evidence[-1] = support  # the frames it was heard in before its birth
             born += 1
-            self.pool = [p[np.abs(wrap_deg(p - centre)) > c.birth_radius_deg]
+            self.pool = [p[np.abs(wrap_azimuth(p - centre)) > c.birth_radius_deg]
                          for p in self.pool]
         return born

@@ -64,6 +64,7 @@ from avtrack.io.rttm import RTTMSegment
 from avtrack.io.scene import SceneInputs, load_scene
 from avtrack.vem.dynamics import cap_box_scale
 from avtrack.vem.engine import VEMEngine
+from avtrack.vem.targets import PerTarget
 from avtrack.vem.visibility import visibility_filter
 from avtrack.visual.model import BOX_DIM, BoxObservations, xywh_to_ltwh
 from avtrack.visual.ovbt import OVBTConfig, OVBTracker, track_mot
@@ -222,6 +223,8 @@ class VAVITracker(OVBTracker):
     ...     out = tracker.step(boxes, appearance=app, bands=bands, g=g)
     """
 
+    unseen_run: np.ndarray
+
     def __init__(
         self,
         mapping: AudioImageMapping,
@@ -257,7 +260,6 @@ class VAVITracker(OVBTracker):
             raise ValueError(f"fov must be (lo, hi) with 0 <= lo < hi <= {w:g}, got {fov!r}")
         self.fov = (lo, hi)
         self.record_precisions = bool(record_precisions)
-        self.unseen_run = np.zeros(0, dtype=np.int64)
 
     # ------------------------------------------------------------------ public step
     def step(
@@ -379,9 +381,9 @@ class VAVITracker(OVBTracker):
             None if prec is None else prec[out],
         )
 
-    def _remove(self, keep: np.ndarray) -> None:
-        super()._remove(keep)
-        self.unseen_run = self.unseen_run[keep]
+    def _per_target(self) -> tuple[PerTarget, ...]:
+        """OVBT's, and the frames neither seen nor heard in a row."""
+        return (*super()._per_target(), PerTarget("unseen_run", 0, dtype=np.int64))
 
     def _birth(self) -> None:
         """Birth (§4.6.2), then re-identification of newborns with persons not seen lately."""
@@ -391,7 +393,6 @@ class VAVITracker(OVBTracker):
         born = eng.n_targets - n_before
         if not born:
             return
-        self.unseen_run = np.concatenate([self.unseen_run, np.zeros(born, dtype=np.int64)])
         cfg = self.av_config
         refs = self.model.references
         if cfg.reid_log_ratio is None or refs is None or n_before == 0:

@@ -45,6 +45,7 @@ from avtrack.vem.birth import (
 from avtrack.vem.dynamics import constant_velocity_transition
 from avtrack.vem.engine import VEMEngine
 from avtrack.vem.model import ObservationModel
+from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.visibility import visibility_filter
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
 
@@ -303,7 +304,7 @@ class RobotFrameTracks:
     p_visible: np.ndarray
 
 
-class RobotTracker:
+class RobotTracker(ManagedTargets):
     """Online 3-D multi-person tracker for a moving stereo head (thesis §3.2).
 
     Parameters
@@ -351,16 +352,16 @@ class RobotTracker:
             marginal_init=cfg.marginal_init,
             exclusive=cfg.exclusive,
         )
-        self.p_visible = np.zeros(0)
-        self.invisible_run = np.zeros(0, dtype=np.int64)
-        self.unseen_run = np.zeros(0, dtype=np.int64)
-        self.mass_history = np.zeros((0, cfg.visibility_window))
+        self.p_visible: np.ndarray
+        self.invisible_run: np.ndarray
+        self.unseen_run: np.ndarray
+        self.mass_history: np.ndarray
+        #: ``(N, 3)`` control term of the last frame (zeros without motion / control).
+        self.last_control: np.ndarray
+        self._init_targets()
         self._pool: deque[FaceObservations] = deque(maxlen=cfg.birth_frames + 1)
-        self._next_id = 1
         self._has_appearance: bool | None = None
         self.frame = 0
-        #: ``(N, 3)`` control term of the last frame (zeros without motion / control).
-        self.last_control = np.zeros((0, 3))
 
     # ------------------------------------------------------------------ covariances
     def _dyn_var(self, mu: np.ndarray, motion: HeadMotion | None) -> np.ndarray:
@@ -536,13 +537,16 @@ class RobotTracker:
             self.p_visible[show].copy(),
         )
 
-    def _remove(self, keep: np.ndarray) -> None:
-        self.engine.remove_targets(keep)
-        self.p_visible = self.p_visible[keep]
-        self.invisible_run = self.invisible_run[keep]
-        self.unseen_run = self.unseen_run[keep]
-        self.mass_history = self.mass_history[keep]
-        self.last_control = self.last_control[keep]
+    def _per_target(self) -> tuple[PerTarget, ...]:
+        """Visibility posterior, frames invisible in view and unseen in a row, visibility
+        evidence window, last control term."""
+        return (
+            PerTarget("p_visible", 1.0),
+            PerTarget("invisible_run", 0, dtype=np.int64),
+            PerTarget("unseen_run", 0, dtype=np.int64),
+            PerTarget("mass_history", 1.0, (self.config.visibility_window,)),
+            PerTarget("last_control", 0.0, (3,)),
+        )
 
     def _birth(self) -> None:
         cfg = self.config
@@ -561,35 +565,15 @@ class RobotTracker:
         if cands and visible.any():
             # a new person cannot stand inside a visible person's box (duplicates)
             mu = self.engine.mu[visible]
-            cand = np.stack([c.mu[:OBS_DIM] for c in cands])
-            inside = _intersection_over_first(
-                self._boxes(cand[:, :3], cand[:, 3:5]), self._boxes(mu[:, :3], mu[:, 3:5])
-            ).max(axis=1)
-            cands = [
-                c for c, o in zip(cands, inside, strict=True) if not o > cfg.birth_max_overlap
-            ]
+            cands = births_outside(
+                cands,
+                lambda m: self._boxes(m[:, :3], m[:, 3:5]),
+                self._boxes(mu[:, :3], mu[:, 3:5]),
+                cfg.birth_max_overlap,
+            )
         born = select_births(cands, cfg.birth_threshold)
         if not born:
             return
-        k = len(born)
-        ids = np.arange(self._next_id, self._next_id + k)
-        self._next_id += k
         mu, gamma, init = born_states(born, self._pool[-1].appearance)
-        self.engine.add_targets(ids, mu, gamma, [init])
-        self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
-        self.invisible_run = np.concatenate([self.invisible_run, np.zeros(k, dtype=np.int64)])
-        self.unseen_run = np.concatenate([self.unseen_run, np.zeros(k, dtype=np.int64)])
-        self.mass_history = np.vstack([self.mass_history, np.ones((k, cfg.visibility_window))])
-        self.last_control = np.vstack([self.last_control, np.zeros((k, 3))])
+        self._add_targets(self._new_ids(len(born)), mu, gamma, [init])
         consume_pool(self._pool, born)
-
-
-def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(K, 4), (N, 4)`` ltwh boxes -> ``(K, N)`` area(a ∩ b) / area(a) (0 for empty a)."""
-    lt = np.maximum(a[:, None, :2], b[None, :, :2])
-    rb = np.minimum(a[:, None, :2] + a[:, None, 2:], b[None, :, :2] + b[None, :, 2:])
-    wh = np.maximum(rb - lt, 0.0)
-    area = a[:, 2] * a[:, 3]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = wh[:, :, 0] * wh[:, :, 1] / area[:, None]
-    return np.nan_to_num(out, nan=0.0, posinf=0.0)

@@ -35,6 +35,7 @@ from avtrack.vem.dynamics import (
     constant_velocity_transition,
 )
 from avtrack.vem.engine import VEMEngine
+from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.updates import ones
 from avtrack.vem.visibility import visibility_filter
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
@@ -139,7 +140,7 @@ class FrameTracks:
     p_visible: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
 
-class OVBTracker:
+class OVBTracker(ManagedTargets):
     """Online visual multi-person tracker (thesis §3.1) on the VEM engine.
 
     Parameters
@@ -167,11 +168,11 @@ class OVBTracker:
                                 update_priors=cfg.update_priors,
                                 dynamics_mstep=cfg.dynamics_mstep,
                                 marginal_init=cfg.marginal_init, exclusive=cfg.exclusive)
-        self.p_visible = np.zeros(0)
-        self.invisible_run = np.zeros(0, dtype=np.int64)
-        self.mass_history = np.zeros((0, cfg.visibility_window))
+        self.p_visible: np.ndarray
+        self.invisible_run: np.ndarray
+        self.mass_history: np.ndarray
+        self._init_targets()
         self._pool: deque[BoxObservations] = deque(maxlen=cfg.birth_frames + 1)
-        self._next_id = 1
         self._has_appearance: bool | None = None
         # targets ended lately, for re-identification: id -> (frame, (x, y, w), reference)
         self._ended: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
@@ -304,16 +305,21 @@ class OVBTracker:
         visible = self.p_visible > 0.5
         return eng.ids[visible], eng.mu[visible, :BOX_DIM], self.p_visible[visible]
 
+    def _per_target(self) -> tuple[PerTarget, ...]:
+        """Visibility posterior, frames invisible in a row, visibility evidence window."""
+        return (
+            PerTarget("p_visible", 1.0),
+            PerTarget("invisible_run", 0, dtype=np.int64),
+            PerTarget("mass_history", 1.0, (self.config.visibility_window,)),
+        )
+
     def _remove(self, keep: np.ndarray) -> None:
         refs = self.model.references
         if self.config.reid_log_ratio is not None and refs is not None:
             for i in np.flatnonzero(~keep):
                 self._ended[int(self.engine.ids[i])] = (
                     self.frame, self.engine.mu[i, :3].copy(), refs[i].copy())
-        self.engine.remove_targets(keep)
-        self.p_visible = self.p_visible[keep]
-        self.invisible_run = self.invisible_run[keep]
-        self.mass_history = self.mass_history[keep]
+        super()._remove(keep)
 
     def _birth(self) -> None:
         cfg = self.config
@@ -323,13 +329,8 @@ class OVBTracker:
         cands = birth_candidates(pools, self.transition, self._dyn_cov, self._velocity_var,
                                  self.log_clutter, gate=cfg.birth_gate,
                                  dynamics_var=self._dyn_var)
-        if self.engine.n_targets and cands:
-            # a new person cannot stand inside a tracked person's box: such sequences are
-            # partial / duplicate detections of that person
-            cand_boxes = xywh_to_ltwh(np.stack([c.mu[:BOX_DIM] for c in cands]))
-            tgt_boxes = xywh_to_ltwh(self.engine.mu[:, :BOX_DIM])
-            inside = _intersection_over_first(cand_boxes, tgt_boxes).max(axis=1)
-            cands = [c for c, o in zip(cands, inside, strict=True) if o <= cfg.birth_max_overlap]
+        cands = births_outside(cands, lambda mu: xywh_to_ltwh(mu[:, :BOX_DIM]),
+                               xywh_to_ltwh(self.engine.mu[:, :BOX_DIM]), cfg.birth_max_overlap)
         self._add_born(select_births(cands, cfg.birth_threshold))
 
     def _reidentify(self, ids: np.ndarray, mu: np.ndarray, refs: np.ndarray) -> np.ndarray:
@@ -373,27 +374,13 @@ class OVBTracker:
         """Add the chosen sequences as new targets and take them out of the birth pool."""
         if not born:
             return
-        cfg = self.config
-        k = len(born)
-        ids = np.arange(self._next_id, self._next_id + k)
-        self._next_id += k
+        ids = self._new_ids(len(born))
         mu, gamma, init = born_states(born, self._pool[-1].appearance)
-        if cfg.reid_log_ratio is not None and init is not None and self._ended:
+        if self.config.reid_log_ratio is not None and init is not None and self._ended:
             ids = self._reidentify(ids, mu, init)
         # the box model gets the appearances; any other model of a subclass (VAVIT) none
-        self.engine.add_targets(ids, mu, gamma, [init] + [None] * (len(self.engine.models) - 1))
-        self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
-        self.invisible_run = np.concatenate([self.invisible_run, np.zeros(k, dtype=np.int64)])
-        self.mass_history = np.vstack([self.mass_history, np.ones((k, cfg.visibility_window))])
+        self._add_targets(ids, mu, gamma, [init] + [None] * (len(self.engine.models) - 1))
         consume_pool(self._pool, born)  # no longer available to other births
-
-
-def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(K, 4), (N, 4)`` ltwh boxes -> ``(K, N)`` area(a ∩ b) / area(a)."""
-    lt = np.maximum(a[:, None, :2], b[None, :, :2])
-    rb = np.minimum(a[:, None, :2] + a[:, None, 2:], b[None, :, :2] + b[None, :, 2:])
-    wh = np.maximum(rb - lt, 0.0)  # intersection width and height, (K, N, 2)
-    return wh[:, :, 0] * wh[:, :, 1] / (a[:, 2] * a[:, 3])[:, None]
 
 
 def image_size_from_detections(dets: MOTData) -> tuple[int, int]:
