@@ -1,8 +1,9 @@
-"""AV-LPF-SMC-PHD vs AV-NPF-SMC-PHD on the shared AV16.3 sequences (seed 004 Tables 1–2).
+"""AV-LPF-SMC-PHD vs AV-NPF-SMC-PHD on the shared AV16.3 sequences (Liu et al.,
+labelled non-zero particle flow SMC-PHD filtering, Tables 1–2).
 
 Both filters (:mod:`avtrack.phd`) run on the same measurements, in the same process, with BLAS
 limited to one thread, on the six sequence / camera pairs of ``../shared/data/av16.3``
-(sequences 24 and 45, cameras 1–3), for ``--seeds`` seeds each (seed 004: 10):
+(sequences 24 and 45, cameras 1–3), for ``--seeds`` seeds each (Liu et al.: 10):
 
 - audio: the DOA measurements ``Z_doa`` of the files, projected into the image as DOA lines;
 - visual: the real face detections for sequence 45 camera 1; for the other five pairs, face

@@ -1,4 +1,4 @@
-"""Memory and speed of the streaming API over a long simulated recording (issue 9).
+"""Memory and speed of the streaming API over a long simulated recording.
 
 The target: a 20-minute simulated recording is processed by the streaming API with memory
 that stays flat. The script

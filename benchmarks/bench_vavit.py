@@ -1,4 +1,5 @@
-"""VAVIT vs the visual-only tracker on simulated AVDIAR-like meetings (seed 003, Tables I-V).
+"""VAVIT vs the visual-only tracker on simulated AVDIAR-like meetings (Ban et al.,
+"Variational Bayesian inference for audio-visual tracking of multiple speakers", Tables I-V).
 
 The suite: seeded AVDIAR-like recordings (:func:`avdiar_like`) in two rooms, a *living room*
 (7 x 6 x 3 m, T60 0.5 s) and a *meeting room* (5.5 x 4.5 x 2.8 m, T60 0.35 s), with 1-4

@@ -123,7 +123,7 @@ def test_config_from_mapping_names_unknown_keys():
 def test_tud_campus_scores(shared_data):
     """Real MOT15 TUD-Campus detections with the one default configuration.
 
-    The issue's target is the original SORT's scores on these detections (MOTA 62.7, IDF1 60.6;
+    The reference is the original SORT's scores on these detections (MOTA 62.7, IDF1 60.6;
     ``benchmarks/bench_mot.py`` runs Bewley's code and reproduces them); avtrack reaches
     MOTA 63.8, IDF1 71.1, HOTA 53.4 today.
     """

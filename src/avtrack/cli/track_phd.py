@@ -1,4 +1,5 @@
-"""``avtrack track-phd``: audio-visual SMC-PHD tracking of an AV16.3 sequence (seed 004)."""
+"""``avtrack track-phd``: audio-visual SMC-PHD tracking of an AV16.3 sequence
+(Liu et al., labelled non-zero particle flow SMC-PHD filtering)."""
 
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ examples:
   # the clustering baseline, another seed, synthetic face detections, with a figure
   avtrack track-phd av16.3/ --seq 24 --cam 2 --filter npf --seed 3 -o npf.csv --plot npf.png
 
-The folder holds files named as in the AV16.3 release used by seed 004:
+The folder holds files named as in the AV16.3 release used by Liu et al.:
   data_av_seqNN_camC.mat, DOA_measurements_seqNN_camC.mat, hist_temp_16bins_seqNN_camC.mat
   and, where available, face_seqNN_camC.mat (face detections).
 Output rows: frame,id,x,y (image pixels of the mouth; id -1 when the filter gives none).
@@ -49,7 +50,7 @@ The --config YAML holds PHDConfig fields, e.g.:
 def register(subparsers: argparse._SubParsersAction) -> None:
     p = subparsers.add_parser(
         "track-phd",
-        help="audio-visual SMC-PHD tracking of AV16.3 (particle flow, seed 004)",
+        help="audio-visual SMC-PHD tracking of AV16.3 (particle flow, Liu et al.)",
         description=(
             "Track the speakers of an AV16.3 sequence in the image with the "
             "AV-LPF-SMC-PHD (labelled\nparticle flow) or AV-NPF-SMC-PHD (particle "

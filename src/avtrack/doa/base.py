@@ -68,7 +68,7 @@ OBSERVATION_MODES = ("all", "above-median", "peaks")
 #: without the frame's median weight: the EG weights keep a near-uniform floor (the entropy
 #: regularisation of eq. 5.19), and with every weight acting as a precision (eq. 5.22) that
 #: floor pins a silent track where it is and spreads its activity mass (eq. 5.43) over ±40°;
-#: see BENCHMARKS.md (issue 5, fifth session) for the measured effect.
+#: see BENCHMARKS.md (acoustic multi-speaker tracking) for the measured effect.
 DEFAULT_OBSERVATIONS = {"gauss": "above-median", "vonmises": "peaks"}
 
 #: Peaks of a block-mean heat map below this weight are not observations.

@@ -2,7 +2,7 @@
 
 The files are those distributed with Kilic et al., "Mean-shift and sparse sampling-based
 SMC-PHD filtering for audio informed visual speaker tracking", IEEE TMM 2016 (the data family
-of seed 004's tables), one folder of MATLAB v5 files per corpus, for sequence ``NN`` and camera
+of Liu et al.'s tables), one folder of MATLAB v5 files per corpus, for sequence ``NN`` and camera
 ``C``:
 
 - ``data_av_seqNN_camC.mat`` — struct ``Data`` with ``cam`` (the three calibrated cameras),

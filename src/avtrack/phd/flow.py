@@ -1,4 +1,4 @@
-"""Non-zero-diffusion particle flow (seed 004 eqs. 6–9) and its Jacobian determinants.
+"""Non-zero-diffusion particle flow (Liu et al. eqs. 6–9) and its Jacobian determinants.
 
 The flow moves each particle ``m`` from the prior towards the posterior along the log-homotopy
 ``log psi(m, lambda) = log g(m) + lambda log h(m)``, ``lambda`` from 0 to 1, in steps

@@ -1,4 +1,4 @@
-"""Audio-visual measurements and likelihoods of the SMC-PHD filters (seed 004 eqs. 2–3, 10, 13,
+"""Audio-visual measurements and likelihoods of the SMC-PHD filters (Liu et al. eqs. 2–3, 10, 13,
 21).
 
 **Visual measurements** are image points ``(x, y)`` in pixels (the speaker's mouth, the point
