@@ -30,9 +30,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from avtrack.errors import InputError
+from avtrack.io.base import read_yaml_file
 from avtrack.registry import Registry
 
 #: task name -> function(item) -> dict of scores (registered with @register_task).
@@ -67,14 +67,7 @@ def load_suite(path: str | Path) -> tuple[str, list[dict]]:
     if str(path) in BUILTIN_SUITES:
         return expand_suite(BUILTIN_SUITES[str(path)])
     path = Path(path)
-    if not path.is_file():
-        raise InputError("suite file not found", path)
-    try:
-        raw = yaml.safe_load(path.read_bytes())
-    except yaml.YAMLError as exc:
-        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-        raise InputError(f"not valid YAML ({problem})", path) from None
-    return expand_suite(raw, path)
+    return expand_suite(read_yaml_file(path, "suite"), path)
 
 
 def expand_suite(raw: Any, path: str | Path | None = None) -> tuple[str, list[dict]]:

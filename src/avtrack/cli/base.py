@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import argparse
 import functools
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -33,11 +33,28 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
     """Keeps the examples block in descriptions/epilogs as written."""
 
 
-def add_common(parser: argparse.ArgumentParser) -> None:
-    """Options every sub-command accepts."""
+def add_command(
+    subparsers: argparse._SubParsersAction,
+    name: str,
+    help: str,
+    description: str | None = None,
+    epilog: str | None = None,
+) -> argparse.ArgumentParser:
+    """A sub-command's parser: one-line ``help`` in the command list, ``description`` and the
+    examples block ``epilog`` (kept as written) in its ``--help``."""
+    return subparsers.add_parser(
+        name, help=help, description=description, epilog=epilog, formatter_class=HelpFormatter
+    )
+
+
+def add_common(
+    parser: argparse.ArgumentParser, func: Callable[[argparse.Namespace], int]
+) -> None:
+    """Options every sub-command accepts (``-q``, ``-v``), and ``func`` the command runs."""
     g = parser.add_mutually_exclusive_group()
     g.add_argument("-q", "--quiet", action="store_true", help="print only errors")
     g.add_argument("-v", "--verbose", action="store_true", help="print progress details")
+    parser.set_defaults(func=func)
 
 
 def add_array_option(
@@ -192,6 +209,7 @@ def apply_config_file(args: argparse.Namespace, settings: Mapping[str, argparse.
 
 __all__ = [
     "HelpFormatter",
+    "add_command",
     "add_common",
     "add_config_option",
     "apply_config_file",

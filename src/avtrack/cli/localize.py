@@ -19,7 +19,7 @@ import numpy as np
 from avtrack.audio.arrays import load_array
 from avtrack.audio.recording import FS, read_array_audio
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_array_option, add_common
+from avtrack.cli.base import add_array_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.doa import read_doa_csv, write_doa_csv
@@ -52,18 +52,17 @@ The --config YAML holds the method's parameters, e.g. for dprtf-eg:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "localize",
         help="frame-wise multi-speaker localization from a microphone-array WAV",
-        description=(
-            "Frame-wise localization of several speakers (thesis ch. 5): heat maps over "
-            "candidate\nazimuths every 8 ms, their peaks written as DOA CSV rows "
-            "(frame,time_s,id,azimuth_deg,\nelevation_deg,weight,active; id -1). Azimuths are "
-            "in the array frame, counter-clockwise\nfrom x, in (-180, 180]. WAV channel k is "
-            "microphone k of --array; audio at another\nrate than 16 kHz is resampled."
-        ),
+        description="""\
+Frame-wise localization of several speakers (thesis ch. 5): heat maps over candidate
+azimuths every 8 ms, their peaks written as DOA CSV rows (frame,time_s,id,azimuth_deg,
+elevation_deg,weight,active; id -1). Azimuths are in the array frame, counter-clockwise
+from x, in (-180, 180]. WAV channel k is microphone k of --array; audio at another
+rate than 16 kHz is resampled.""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("audio", type=Path, metavar="AUDIO.wav", help="multichannel recording")
     add_array_option(p)
@@ -130,8 +129,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 

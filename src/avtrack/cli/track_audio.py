@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_array_option, add_common
+from avtrack.cli.base import add_array_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.doa.base import (
     DEFAULT_OBSERVATIONS,
@@ -54,17 +54,16 @@ The --config YAML holds the tracker's parameters (GaussConfig / VonMisesConfig f
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "track-audio",
         help="acoustic multi-speaker tracking (localization + VEM tracker)",
-        description=(
-            "Track several speakers from a microphone-array recording (thesis ch. 5): frame-wise\n"
-            "localization every 8 ms, then a variational-EM tracker every 32 ms that keeps the\n"
-            "identities through speech pauses and says who is speaking. Azimuths are in the\n"
-            "array frame, counter-clockwise from x, in (-180, 180]."
-        ),
+        description="""\
+Track several speakers from a microphone-array recording (thesis ch. 5): frame-wise
+localization every 8 ms, then a variational-EM tracker every 32 ms that keeps the
+identities through speech pauses and says who is speaking. Azimuths are in the
+array frame, counter-clockwise from x, in (-180, 180].""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument(
         "audio",
@@ -141,8 +140,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def load_tracker_config(name: str, path: Path | None):

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_array_option, add_common
+from avtrack.cli.base import add_array_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.camera import read_camera_file
@@ -83,20 +83,18 @@ and VAVITConfig fields with --model image, e.g.:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "track-av",
         help="audio-visual tracking and diarization of a scene directory",
-        description=(
-            "Variational audio-visual tracking and diarization of several speakers. By default "
-            "persons\nlive in directions from the microphone array (the camera's view a window "
-            "inside them):\nhead detections enter through the camera geometry, DP-RTF + EG "
-            "audio peaks directly, so a\nperson out of view stays tracked while heard and a "
-            "talker never seen gets a track.\n--model image: the thesis's image-plane model "
-            "(ch. 4) with a learned GLLiM mapping.\nSCENE_DIR is a scene directory as written "
-            "by 'avtrack simulate'."
-        ),
+        description="""\
+Variational audio-visual tracking and diarization of several speakers. By default persons
+live in directions from the microphone array (the camera's view a window inside them):
+head detections enter through the camera geometry, DP-RTF + EG audio peaks directly, so a
+person out of view stays tracked while heard and a talker never seen gets a track.
+--model image: the thesis's image-plane model (ch. 4) with a learned GLLiM mapping.
+SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("scene", type=Path, metavar="SCENE_DIR", nargs="?",
                    help="scene directory (or give a recording with --audio / --camera)")
@@ -182,8 +180,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="--model image: write OUT_DIR/covariances.png, the visual, audio and dynamics "
         "covariances of the tracked persons in four frames (Ban et al., Fig. 1)",
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def load_vavit_config(path: Path | None, threshold: float | None):
@@ -266,14 +263,7 @@ def run_direction(args: argparse.Namespace) -> int:
     _write_text(out / "persons.csv", res.persons.to_csv())
     write_rttm(out / "speech.rttm", res.speech)
     if not args.quiet:
-        n_persons = len(np.unique(res.persons.ids))
-        speakers = len({s.speaker for s in res.speech})
-        print(
-            f"tracked {res.n_frames} frames ({res.timing['duration']:.1f} s): {n_persons} "
-            f"persons, {len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} "
-            f"speakers -> {out} ({elapsed:.1f} s, real-time factor "
-            f"{elapsed / max(res.timing['duration'], 1e-9):.2f})"
-        )
+        _print_summary(res, len(np.unique(res.persons.ids)), out, elapsed)
     return 0
 
 
@@ -421,6 +411,17 @@ def run_recording(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_summary(res, n_persons: int, out: Path, elapsed: float) -> None:
+    """One line: frames, persons, boxes, speaker turns, output, time and real-time factor."""
+    duration = res.timing["duration"]
+    speakers = len({s.speaker for s in res.speech})
+    print(
+        f"tracked {res.n_frames} frames ({duration:.1f} s): {n_persons} persons, "
+        f"{len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} speakers "
+        f"-> {out} ({elapsed:.1f} s, real-time factor {elapsed / max(duration, 1e-9):.2f})"
+    )
+
+
 def _write_text(path: Path, text: str) -> None:
     from avtrack.io.base import atomic_write
 
@@ -494,14 +495,7 @@ def run_image(args: argparse.Namespace) -> int:
 
         plot_covariances(res, out / "covariances.png", args.no_audio)
     if not args.quiet:
-        n_ids = len(np.unique(res.tracks.ids))
-        speakers = len({s.speaker for s in res.speech})
-        print(
-            f"tracked {res.n_frames} frames ({res.timing['duration']:.1f} s): {n_ids} persons, "
-            f"{len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} speakers "
-            f"-> {out} ({elapsed:.1f} s, real-time factor "
-            f"{elapsed / max(res.timing['duration'], 1e-9):.2f})"
-        )
+        _print_summary(res, len(np.unique(res.tracks.ids)), out, elapsed)
     return 0
 
 

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli.base import add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.datasets import find_seqinfo, read_seqinfo
@@ -54,13 +54,15 @@ The --config YAML holds OVBTConfig fields, e.g.:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "track-mot", help="track MOTChallenge detections (visual VEM tracker, OVBT)",
-        description=("Online variational-Bayesian multi-person tracking (thesis §3.1) of "
-                     "MOTChallenge detections\n(frame,id,left,top,width,height,conf,...); "
-                     "writes MOTChallenge results\n(frame,id,left,top,width,height,conf,-1,-1,-1)"
-                     ", conf being the track's visibility probability."),
-        epilog=EXAMPLES, formatter_class=HelpFormatter)
+    p = add_command(
+        subparsers,
+        "track-mot",
+        help="track MOTChallenge detections (visual VEM tracker, OVBT)",
+        description="""\
+Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge detections
+(frame,id,left,top,width,height,conf,...); writes MOTChallenge results
+(frame,id,left,top,width,height,conf,-1,-1,-1), conf being the track's visibility probability.""",
+        epilog=EXAMPLES)
     p.add_argument("detections", type=Path, metavar="DET.txt", nargs="?",
                    help="MOTChallenge detections (omit to detect in --video's frames)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="RES.txt",
@@ -87,8 +89,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="tracker parameters (OVBTConfig fields)")
     p.add_argument("--min-score", type=float, metavar="S",
                    help="drop detections with a lower confidence (overrides --config)")
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def parse_image_size(text: str) -> tuple[int, int]:

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common
+from avtrack.cli.base import add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
@@ -48,7 +48,8 @@ The --config YAML holds PHDConfig fields, e.g.:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "track-phd",
         help="audio-visual SMC-PHD tracking of AV16.3 (particle flow, Liu et al.)",
         description=(
@@ -59,7 +60,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "time."
         ),
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("folder", type=Path, metavar="AV163_DIR", help="folder of AV16.3 MAT files")
     p.add_argument("--seq", type=int, required=True, help="sequence number (e.g. 24, 45)")
@@ -93,8 +93,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="FIG.png",
         help="also draw the tracks, ground truth and OSPA over time",
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def write_tracks(path: Path, rows: np.ndarray) -> None:

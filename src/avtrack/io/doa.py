@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write, parse_finite
+from avtrack.io.base import atomic_write, field_count_error, parse_finite
 
 DOA_HEADER = "frame,time_s,id,azimuth_deg,elevation_deg,weight,active"
 _COLUMNS = DOA_HEADER.split(",")
@@ -198,11 +198,8 @@ def read_doa_csv(path: str | Path) -> DOATable:
             continue
         parts = [p.strip() for p in line.split(",")]
         if len(parts) != len(_COLUMNS):
-            raise InputError(
-                f"expected {len(_COLUMNS)} comma-separated values ({DOA_HEADER}), "
-                f"got {len(parts)}",
-                path,
-                row,
+            raise field_count_error(
+                f"{len(_COLUMNS)} comma-separated values ({DOA_HEADER})", len(parts), path, row
             )
         frame = _parse_int(parts[0], "frame", path, row)
         time_s = parse_finite(parts[1], "time_s", path, row)

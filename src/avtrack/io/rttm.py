@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write, parse_finite
+from avtrack.io.base import atomic_write, field_count_error, parse_finite
 
 # RTTM record types other than SPEAKER; they carry no speaker turns and are skipped.
 OTHER_TYPES = frozenset(
@@ -277,11 +277,9 @@ def read_rttm(path: str | Path) -> list[RTTMSegment]:
         if kind != "SPEAKER":
             raise InputError(f"unknown RTTM record type {kind!r} (expected SPEAKER)", path, row)
         if not 8 <= len(fields) <= 10:
-            raise InputError(
-                f"expected 10 space-separated fields (SPEAKER file channel start duration "
-                f"<NA> <NA> speaker <NA> <NA>), got {len(fields)}",
-                path,
-                row,
+            raise field_count_error(
+                "10 space-separated fields (SPEAKER file channel start duration <NA> <NA> "
+                "speaker <NA> <NA>)", len(fields), path, row
             )
         start = parse_finite(fields[3], "start (field 4)", path, row)
         dur = parse_finite(fields[4], "duration (field 5)", path, row)

@@ -21,6 +21,7 @@ from typing import Any
 import yaml
 
 from avtrack.errors import InputError
+from avtrack.io.base import read_yaml_file
 
 SCENARIO_REFERENCE = """\
 name: my-scene              # free text
@@ -373,15 +374,7 @@ def _validate_person(ck: _Checker, person: Any, i: int, sc: dict) -> dict:
 def load_scenario(path: str | Path) -> dict:
     """Read and validate a scenario YAML file (see ``SCENARIO_REFERENCE``)."""
     path = Path(path)
-    if not path.is_file():
-        raise InputError("scenario file not found", path)
-    try:
-        raw = yaml.safe_load(path.read_bytes())
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        row = None if mark is None else mark.line + 1
-        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-        raise InputError(f"not valid YAML ({problem})", path, row) from None
+    raw = read_yaml_file(path, "scenario")
     if raw is None:
         raise InputError("empty scenario file", path)
     return validate_scenario(raw, path)

@@ -47,7 +47,11 @@ from avtrack.vem.engine import VEMEngine
 from avtrack.vem.model import ObservationModel
 from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.visibility import visibility_filter
-from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
+from avtrack.visual.appearance import (
+    APPEARANCE_MODELS,
+    AppearanceLikelihood,
+    init_appearance_model,
+)
 
 _LOG_2PI = float(np.log(2 * np.pi))
 CONTROL_MODES = ("jacobian", "exact", "none")
@@ -79,6 +83,10 @@ class FaceObservationModel(ObservationModel):
     """
 
     name = "stereo-face"
+    log_clutter_density: float
+    appearance: AppearanceLikelihood | None
+    appearance_update: float
+    references: np.ndarray | None  # (N, F)
 
     def __init__(
         self,
@@ -86,14 +94,7 @@ class FaceObservationModel(ObservationModel):
         appearance: AppearanceLikelihood | None = None,
         appearance_update: float = 0.0,
     ):
-        if not np.isfinite(log_clutter_density):
-            raise ValueError(f"log_clutter_density must be finite, got {log_clutter_density}")
-        if not 0.0 <= appearance_update <= 1.0:
-            raise ValueError(f"appearance_update must be in [0, 1], got {appearance_update}")
-        self.log_clutter_density = float(log_clutter_density)
-        self.appearance = appearance
-        self.appearance_update = float(appearance_update)
-        self.references: np.ndarray | None = None  # (N, F)
+        init_appearance_model(self, log_clutter_density, appearance, appearance_update)
 
     def n_observations(self, obs: FaceObservations) -> int:
         return len(obs)

@@ -146,13 +146,9 @@ class AVStream:
     ) -> list[AVStreamFrame]:
         """Detections of the next video frame; return the frames that can now be tracked.
 
-        Parameters
-        ----------
-        boxes : ndarray (M, 4)
-            Head boxes (left, top, width, height), pixels.
-        scores : ndarray (M,), optional
-        appearance : ndarray (M, F), optional
-            Given for every frame or for none.
+        ``boxes``, ``scores`` and ``appearance`` are those of
+        :meth:`VAVITracker.step <avtrack.av.vavit.VAVITracker.step>`; ``appearance`` is given
+        for every frame or for none.
         """
         boxes = np.asarray(boxes, dtype=float)
         if boxes.size == 0:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -98,3 +99,22 @@ APPEARANCE_MODELS: dict[str, type[AppearanceLikelihood]] = {
     "bhattacharyya": BhattacharyyaAppearance,
     "cosine": CosineAppearance,
 }
+
+
+def init_appearance_model(
+    model: Any,
+    log_clutter_density: float,
+    appearance: AppearanceLikelihood | None,
+    appearance_update: float,
+) -> None:
+    """Set the attributes every observation model with appearance shares, checked: the clutter
+    log-density, the appearance likelihood (eq. 3.5), the reference update rate in [0, 1] and
+    no reference yet (``references (N, F)`` once targets exist)."""
+    if not np.isfinite(log_clutter_density):
+        raise ValueError(f"log_clutter_density must be finite, got {log_clutter_density}")
+    if not 0.0 <= appearance_update <= 1.0:
+        raise ValueError(f"appearance_update must be in [0, 1], got {appearance_update}")
+    model.log_clutter_density = float(log_clutter_density)
+    model.appearance = appearance
+    model.appearance_update = float(appearance_update)
+    model.references = None

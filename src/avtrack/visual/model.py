@@ -22,7 +22,7 @@ import numpy as np
 
 from avtrack.vem.model import DiagonalObservationModel
 from avtrack.vem.updates import e_z_normalise, exclusive_projection
-from avtrack.visual.appearance import AppearanceLikelihood
+from avtrack.visual.appearance import AppearanceLikelihood, init_appearance_model
 
 BOX_DIM = 4
 STATE_DIM = 6
@@ -188,19 +188,16 @@ class BoxObservationModel(DiagonalObservationModel):
 
     name = "visual"
     observed_dim = BOX_DIM
+    log_clutter_density: float
+    appearance: AppearanceLikelihood | None
+    appearance_update: float
+    references: np.ndarray | None  # (N, F)
 
     def __init__(
         self, log_clutter_density: float, appearance: AppearanceLikelihood | None = None,
         appearance_update: float = 0.0,
     ):
-        if not np.isfinite(log_clutter_density):
-            raise ValueError(f"log_clutter_density must be finite, got {log_clutter_density}")
-        if not 0.0 <= appearance_update <= 1.0:
-            raise ValueError(f"appearance_update must be in [0, 1], got {appearance_update}")
-        self.log_clutter_density = float(log_clutter_density)
-        self.appearance = appearance
-        self.appearance_update = float(appearance_update)
-        self.references: np.ndarray | None = None  # (N, F)
+        init_appearance_model(self, log_clutter_density, appearance, appearance_update)
         self._log_clutter_cache: dict[int, np.ndarray] = {}
 
     def n_observations(self, obs: BoxObservations) -> int:
