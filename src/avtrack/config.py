@@ -85,7 +85,7 @@ def _check_value(annotation: Any, value: Any, base: Any, field: str, path) -> An
         if len(options) == 1:
             return _check_value(options[0], value, base, field, path)
         return value
-    if dataclasses.is_dataclass(annotation):
+    if isinstance(annotation, type) and dataclasses.is_dataclass(annotation):
         if not isinstance(value, dict):
             what = f"a mapping of {annotation.__name__} fields"
             raise InputError(f"{field}: expected {what}, got {_show(value)}", path)

@@ -73,7 +73,7 @@ def localizer_grid(array: MicArray) -> DirectionGrid:
     (a binaural head or a pair) only the frontal half-plane, since a pair cannot tell a source
     in front from its mirror image behind it."""
     if array.n_mics <= 2:
-        return DirectionGrid(np.arange(-90.0, 90.0 + 1e-9, 5.0), [0.0])
+        return DirectionGrid(np.arange(-90.0, 90.0 + 1e-9, 5.0), np.zeros(1))
     return DirectionGrid.azimuths(5.0)
 
 
@@ -115,7 +115,7 @@ def audio_peaks(
     mean /= np.maximum(count, 1)[:, None]
     if grid.n_elevations > 1:  # the azimuth profile: sum over elevations
         mean = mean.reshape(n_frames, grid.n_elevations, grid.n_azimuths).sum(axis=1)
-        grid = DirectionGrid(grid.azimuth_values, [0.0])
+        grid = DirectionGrid(grid.azimuth_values, np.zeros(1))
     peak = local_maxima(mean, grid) & (mean >= floor)
     az = grid.azimuth_deg
     return [az[row] for row in peak]

@@ -111,7 +111,7 @@ _NOT_SETTINGS = ("help", "version", "quiet", "verbose", "config")
 
 
 def _settings(parser: argparse.ArgumentParser, exclude) -> dict[str, argparse.Action]:
-    out = {}
+    out: dict[str, argparse.Action] = {}
     for action in parser._actions:
         if action.dest in _NOT_SETTINGS or action.dest in exclude or action.required:
             continue

@@ -163,7 +163,7 @@ def make_grid(step_deg: float, elevations: str | None) -> DirectionGrid:
         return base
     try:
         values = sorted({float(v) for v in elevations.split(",") if v.strip()})
-        return DirectionGrid(base.azimuth_values, values)
+        return DirectionGrid(base.azimuth_values, np.asarray(values))
     except ValueError as exc:
         raise InputError(
             f"--elevations: expected comma-separated degrees in [-90, 90], got "

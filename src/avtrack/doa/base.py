@@ -231,7 +231,7 @@ class DOASequence:
             w = w[last]
         if baseline == "median" and w.size:
             w = np.maximum(w - np.median(w, axis=1, keepdims=True), 0.0)
-        keep = w >= floor if floor > 0 else np.ones(w.shape, dtype=bool)
+        keep = np.asarray(w >= floor) if floor > 0 else np.ones(w.shape, dtype=bool)
         if peaks_only:
             keep &= circular_peaks(w)
         az.setflags(write=False)
@@ -405,7 +405,7 @@ class DOATracker(ABC):
             raise ValueError(
                 f"frame_period_s must be a positive number of seconds, got {frame_period_s!r}"
             )
-        self.config = config
+        self.config: Any = config
         self.frame_period_s = float(frame_period_s)
         self.reset()
 

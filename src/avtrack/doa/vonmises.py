@@ -88,13 +88,13 @@ def inv_bessel_ratio(a: np.ndarray | float) -> np.ndarray:
     r""":math:`A^{-1}(a) \approx (2a - a^3)/(1 - a^2)` (thesis, below eq. 5.56), for
     :math:`a \in [0, 1)` (clipped to ``[0, 1 - 1e-12]``)."""
     a = np.clip(np.asarray(a, dtype=float), 0.0, _MAX_RATIO)
-    return (2 * a - a**3) / ((1 - a) * (1 + a))  # (2a - a³)/(1 - a²)
+    return np.asarray((2 * a - a**3) / ((1 - a) * (1 + a)))  # (2a - a³)/(1 - a²)
 
 
 def d_inv_bessel_ratio(a: np.ndarray | float) -> np.ndarray:
     r""":math:`\tilde A(a) = dA^{-1}/da = (2 - a^2 + a^4)/(1 - a^2)^2` (appendix A.3.3)."""
     a = np.clip(np.asarray(a, dtype=float), 0.0, _MAX_RATIO)
-    return (2 - a**2 + a**4) / ((1 - a) * (1 + a)) ** 2
+    return np.asarray((2 - a**2 + a**4) / ((1 - a) * (1 + a)) ** 2)
 
 
 def d_bessel_ratio(kappa: np.ndarray | float) -> np.ndarray:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
@@ -27,6 +28,10 @@ _TRUE = frozenset({"1", "true"})
 _FALSE = frozenset({"0", "false"})
 
 
+@overload
+def wrap_azimuth(deg: float) -> float: ...
+@overload
+def wrap_azimuth(deg: np.ndarray) -> np.ndarray: ...
 def wrap_azimuth(deg: float | np.ndarray) -> float | np.ndarray:
     """Angles in degrees wrapped to (−180, 180] (−180 maps to 180).
 

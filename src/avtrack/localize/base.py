@@ -135,7 +135,7 @@ class Localizer(ABC):
             )
         self.array = array
         self.grid = grid
-        self.config = config
+        self.config: Any = config
         self.stft_config = STFTConfig() if stft is None else stft
         self._stft = StreamingSTFT(array.n_mics, self.stft_config)
         self._setup()

@@ -87,7 +87,7 @@ class DirectionGrid:
         if not (step_deg > 0 and abs(n - round(n)) < 1e-9 and round(n) >= 1):
             raise ValueError(f"DirectionGrid.azimuths: step_deg must divide 360, got {step_deg!r}")
         az = -180.0 + step_deg * np.arange(1, round(n) + 1)
-        return cls(az, [float(elevation_deg)])
+        return cls(az, np.array([float(elevation_deg)]))
 
     @classmethod
     def sphere(cls, az_step_deg: float = 5.0, elevations_deg=(-30.0, 0.0, 30.0)) -> DirectionGrid:

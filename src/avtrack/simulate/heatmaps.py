@@ -56,7 +56,7 @@ def synthetic_heatmaps(
     bumps = np.exp(kappa * (np.cos(grid[None, None, :] - centre[:, :, None]) - 1.0))
     bumps /= bumps.sum(axis=2, keepdims=True)
     w = (amp[:, :, None] * bumps).sum(axis=1)
-    spur = rng.random(t_) < spurious_rate
+    spur = np.asarray(rng.random(t_) < spurious_rate)
     if spur.any():
         c = rng.uniform(-np.pi, np.pi, int(spur.sum()))
         b = np.exp(kappa * (np.cos(grid[None, :] - c[:, None]) - 1.0))

@@ -102,7 +102,7 @@ def birth_candidates(
     if c == 0:
         return []
     cv = None if dynamics_var is None else cv_transition(transition, k)
-    if cv is not None:
+    if cv is not None and dynamics_var is not None:
         return _filter_cv(pools, cv, dynamics_var, velocity_var, log_clutter_density, gate, beam)
     d = transition.shape[0]
     # p(s_{t-B}): centred at the first observation (eq. 3.30 and the text below it).

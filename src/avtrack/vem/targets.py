@@ -81,7 +81,7 @@ class ManagedTargets:
         self.engine.add_targets(ids, mu, gamma, list(inits))
         k = len(ids)
         for spec in self._per_target():
-            rows = np.full((k, *spec.shape), spec.born, dtype=spec.dtype)
+            rows: np.ndarray = np.full((k, *spec.shape), spec.born, dtype=spec.dtype)
             setattr(self, spec.name, np.concatenate([getattr(self, spec.name), rows]))
 
     def _remove(self, keep: np.ndarray) -> None:

@@ -9,6 +9,7 @@ clutter class gets :math:`u(h)`, so only the ratio matters.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -95,7 +96,7 @@ class CosineAppearance(AppearanceLikelihood):
         return self.kappa * (observed @ reference.T - self.neutral_similarity)
 
 
-APPEARANCE_MODELS: dict[str, type[AppearanceLikelihood]] = {
+APPEARANCE_MODELS: dict[str, Callable[[float], AppearanceLikelihood]] = {
     "bhattacharyya": BhattacharyyaAppearance,
     "cosine": CosineAppearance,
 }

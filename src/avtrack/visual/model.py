@@ -316,7 +316,7 @@ class BoxObservationModel(DiagonalObservationModel):
 
     def update_targets(self, obs: BoxObservations, resp: np.ndarray) -> None:
         if (self.appearance_update <= 0 or self.references is None or obs.appearance is None
-                or len(obs) == 0):
+                or self.appearance is None or len(obs) == 0):
             return
         a = resp[:, 1:]  # (M, N)
         weight = np.minimum(a.sum(axis=0), 1.0)[:, None]  # (N, 1)
