@@ -134,7 +134,10 @@ class PinholeCamera:
             raise ValueError(f"PinholeCamera.from_fov: hfov_deg must be in (0, 180), got {h!r}")
         _positive("width", width)
         f = 0.5 * float(width) / math.tan(math.radians(h) / 2.0)
-        return cls(f, f, width / 2.0, height / 2.0, width, height, position, yaw_deg, pitch_deg)
+        return cls(
+            f, f, width / 2.0, height / 2.0, width, height, np.asarray(position), yaw_deg,
+            pitch_deg,
+        )
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, PinholeCamera):

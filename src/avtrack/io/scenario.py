@@ -16,7 +16,7 @@ from __future__ import annotations
 import copy
 import math
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import yaml
 
@@ -132,7 +132,7 @@ class _Checker:
     def __init__(self, path: str | Path | None):
         self.path = path
 
-    def fail(self, field: str, message: str) -> None:
+    def fail(self, field: str, message: str) -> NoReturn:
         raise InputError(f"{field}: {message}", self.path)
 
     def mapping(self, value: Any, field: str) -> dict:
