@@ -239,7 +239,7 @@ def track_persons(
     w = geometry.image_size[0]
     return PersonsResult(tracks, speaking, persons, speech, n_frames, fps,
                          fov if fov is not None else (0.0, float(w)),
-                         tuple(geometry.image_size), timing)
+                         (geometry.image_size[0], geometry.image_size[1]), timing)
 
 
 def scene_geometry(scene) -> CameraGeometry:

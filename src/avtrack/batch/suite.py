@@ -204,7 +204,7 @@ def _task_track_mot(item: dict) -> dict[str, Any]:
         gt = read_mot(folder / "gt" / "gt.txt", "gt")
         info = find_seqinfo(folder / "det" / "det.txt")
         seq = read_seqinfo(info) if info else {}
-        size = (seq["width"], seq["height"]) if "width" in seq else (640, 480)
+        size = (int(seq["width"]), int(seq["height"])) if "width" in seq else (640, 480)
         app = None
         bench = "MOT15"
     res = track_mot(det, app, build_config(OVBTConfig, params), image_size=size)

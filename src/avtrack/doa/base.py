@@ -231,11 +231,11 @@ class DOASequence:
             w = w[last]
         if baseline == "median" and w.size:
             w = np.maximum(w - np.median(w, axis=1, keepdims=True), 0.0)
-        keep = np.asarray(w >= floor) if floor > 0 else np.ones(w.shape, dtype=bool)
+        keep: np.ndarray = np.asarray(w >= floor) if floor > 0 else np.ones(w.shape, dtype=bool)
         if peaks_only:
             keep &= circular_peaks(w)
         az.setflags(write=False)
-        full = keep.all(axis=1)
+        full = np.asarray(keep.all(axis=1))
         azs = tuple(az if full[k] else az[keep[k]] for k in range(n_blocks))
         ws = tuple(w[k] if full[k] else w[k, keep[k]] for k in range(n_blocks))
         return cls(frames[last], time_s[last], azs, ws)

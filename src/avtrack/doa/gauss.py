@@ -349,12 +349,13 @@ class GaussDOATracker(DOATracker):
         cfg: GaussConfig = self.config
         if len(self._pool) < cfg.birth_frames + 1 or any(p is None for p in self._pool):
             return 0.0
-        w = np.array([p[1] for p in self._pool])
+        pool = [p for p in self._pool if p is not None]  # all of them (checked above)
+        w = np.array([p[1] for p in pool])
         # cheap exact bound: each innovation density is at most N(0; 0, Σ/w_k)
         bound = (np.log(w[1:] / (2 * np.pi * cfg.obs_var)) - cfg.log_clutter_density).sum()
         if bound <= cfg.birth_threshold:
             return 0.0
-        b = np.stack([p[0] for p in self._pool])
+        b = np.stack([p[0] for p in pool])
         llr, mu, gamma = birth_log_ratio(
             b,
             w,

@@ -181,6 +181,8 @@ def transfer_functions(
     if not np.all(np.isfinite(f)) or np.any(f < 0):
         raise ValueError("transfer_functions: freqs_hz must be finite and >= 0")
     if array.kind == "hrtf":
+        if array.hrir is None:
+            raise ValueError(f"transfer_functions: HRTF array {array.name!r} has no HRIRs")
         hrir = array.hrir.resampled(int(fs))
         idx = hrir.nearest_index(grid.azimuth_deg, grid.elevation_deg)  # (D,)
         irs = hrir.irs[idx]  # (D, M, L)
