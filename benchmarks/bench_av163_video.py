@@ -1,7 +1,7 @@
 """AV16.3 from its real video: colour-histogram visual measurements for the SMC-PHD filters.
 
 Sequence 30, camera 1 (the one sequence whose video is in ``../shared/data/av16.3``): the
-visual measurements come from the frames (:class:`avtrack.detect.colour.ColourTemplateDetector`
+visual measurements come from the frames (:class:`avtrack.visual.colour.ColourTemplateDetector`
 with the sequence's ``hist_temp_16bins`` templates, foreground windows only), the audio ones
 are the file's DOA measurements as DOA lines. Beside them, the same filters on detections
 synthesised from the ground truth (:class:`avtrack.phd.likelihood.SyntheticFaceDetector`), and
@@ -39,7 +39,6 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from avtrack.detect.colour import ColourTemplateDetector  # noqa: E402
 from avtrack.io.av163 import load_av163  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
 from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
@@ -50,6 +49,7 @@ from avtrack.phd.likelihood import (  # noqa: E402
     av163_frames,
     av163_truth,
 )
+from avtrack.visual.colour import ColourTemplateDetector  # noqa: E402
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 VIDEO = "seq30-2p-1101_cam1_divx_audio.avi"
@@ -100,7 +100,7 @@ def phd_scores(name: str, config: PHDConfig, frames, seq, seed: int) -> tuple[fl
 
 
 def vem_scores(visual: list[np.ndarray], seq) -> tuple[float, float]:
-    from avtrack.tracking.ovbt import OVBTracker
+    from avtrack.visual.ovbt import OVBTracker
 
     w, h = FACE_BOX
     tracker = OVBTracker(image_size=(360, 288))

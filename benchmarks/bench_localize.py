@@ -157,7 +157,7 @@ def accuracy(methods, scenes: list[Path], skip_s: float, configs: dict | None = 
     for m in methods:
         tables, truths, elapsed, duration = [], [], 0.0, 0.0
         for d in scenes:
-            from avtrack.cli.localize import read_array_audio
+            from avtrack.audio.recording import read_array_audio
 
             array = load_array(d / "array.json")
             x = read_array_audio(d / "audio.wav", array, quiet=True)

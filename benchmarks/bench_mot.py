@@ -115,7 +115,7 @@ def peer_runner(key: str, dets: MOTData) -> tuple[Callable[[], Any], Callable[[A
 def bewley_sort_runner(dets: MOTData) -> tuple[Callable[[], Any], Callable[[Any], MOTData]]:
     """The original SORT code (Bewley et al. 2016, packaged on PyPI as ``sort-tracker-py``)
     with its defaults (max_age 1, min_hits 3, IoU 0.3): the tracker whose TUD-Campus scores
-    (MOTA 62.7, IDF1 60.6) are issue 2's target. It outputs the Kalman-filtered box of the
+    (MOTA 62.7, IDF1 60.6) are the reference to beat. It outputs the Kalman-filtered box of the
     tracks updated in the frame as rows (x1, y1, x2, y2, score, id)."""
     from sort_tracker import Sort
 
@@ -147,7 +147,7 @@ def _reset_sort_ids() -> None:
 
 
 def avtrack_runner(dets: MOTData) -> tuple[Callable[[], Any], Callable[[Any], MOTData]]:
-    from avtrack.tracking.ovbt import track_mot
+    from avtrack.visual.ovbt import track_mot
 
     def loop() -> MOTData:
         return track_mot(dets)

@@ -31,7 +31,7 @@ import numpy as np  # noqa: E402
 from avtrack.io.datasets import read_seqinfo  # noqa: E402
 from avtrack.io.mot import read_mot  # noqa: E402
 from avtrack.metrics.mot import evaluate_mot  # noqa: E402
-from avtrack.tracking.ovbt import OVBTConfig, track_mot  # noqa: E402
+from avtrack.visual.ovbt import OVBTConfig, track_mot  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_mot  # noqa: E402

@@ -40,9 +40,13 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from avtrack.av.persons_scene import track_scene_persons  # noqa: E402
+from avtrack.av.vavit import fov_strip, track_scene  # noqa: E402
 from avtrack.io.doa import read_doa_csv  # noqa: E402
 from avtrack.io.mot import read_mot  # noqa: E402
 from avtrack.io.rttm import read_rttm  # noqa: E402
+from avtrack.io.scenario import validate_scenario  # noqa: E402
+from avtrack.io.scene import load_scene  # noqa: E402
 from avtrack.metrics.der import DERComponents, diarization_error_rate  # noqa: E402
 from avtrack.metrics.mot import evaluate_mot  # noqa: E402
 from avtrack.metrics.persons import (  # noqa: E402
@@ -52,10 +56,7 @@ from avtrack.metrics.persons import (  # noqa: E402
     truth_per_frame,
 )
 from avtrack.simulate.library import named_scenario  # noqa: E402
-from avtrack.simulate.scenario import validate_scenario  # noqa: E402
 from avtrack.simulate.scene import simulate_scene, write_scene  # noqa: E402
-from avtrack.tracking.persons_scene import track_scene_persons  # noqa: E402
-from avtrack.tracking.vavit import fov_strip, load_scene, track_scene  # noqa: E402
 
 SUITES = {"walkout": ("walkout", 1.0), "meeting-pfov": ("meeting", 0.4),
           "meeting-ffov": ("meeting", 1.0)}

@@ -1,8 +1,9 @@
-"""AV-LPF-SMC-PHD vs AV-NPF-SMC-PHD on the shared AV16.3 sequences (seed 004 Tables 1–2).
+"""AV-LPF-SMC-PHD vs AV-NPF-SMC-PHD on the shared AV16.3 sequences (Liu et al.,
+labelled non-zero particle flow SMC-PHD filtering, Tables 1–2).
 
 Both filters (:mod:`avtrack.phd`) run on the same measurements, in the same process, with BLAS
 limited to one thread, on the six sequence / camera pairs of ``../shared/data/av16.3``
-(sequences 24 and 45, cameras 1–3), for ``--seeds`` seeds each (seed 004: 10):
+(sequences 24 and 45, cameras 1–3), for ``--seeds`` seeds each (Liu et al.: 10):
 
 - audio: the DOA measurements ``Z_doa`` of the files, projected into the image as DOA lines;
 - visual: the real face detections for sequence 45 camera 1; for the other five pairs, face
@@ -15,7 +16,7 @@ averaged over the frames of a sequence, then over the seeds (Table 1); the mean 
 sample size, the number of resamplings and the running time of the filter steps (Table 2, for
 sequence 45 camera 1 as in the seed, plus the means over the six pairs).
 
-Optionally (``--vem``) a third row: the visual VEM tracker (:class:`avtrack.tracking.ovbt.
+Optionally (``--vem``) a third row: the visual VEM tracker (:class:`avtrack.visual.ovbt.
 OVBTracker`, thesis §3.1) on the same visual measurements, as fixed-size face boxes (no audio).
 
 Usage::
@@ -55,7 +56,7 @@ FACE_BOX = (18.0, 25.0)  # median face box of seq45 cam1 (w, h), for the VEM row
 
 def run_vem(visual: list[np.ndarray], n_frames: int) -> tuple[list[np.ndarray], float]:
     """The OVBT visual VEM tracker on fixed-size boxes around the visual points."""
-    from avtrack.tracking.ovbt import OVBTracker
+    from avtrack.visual.ovbt import OVBTracker
 
     w, h = FACE_BOX
     tracker = OVBTracker(image_size=(360, 288))

@@ -1,6 +1,6 @@
 """Cost and accuracy of the point-target projection on the E-Z steps of a TUD-Campus run.
 
-Records every ``alpha`` that :func:`avtrack.tracking.vem.exclusive_projection` receives while
+Records every ``alpha`` that :func:`avtrack.vem.updates.exclusive_projection` receives while
 ``track_mot`` runs over TUD-Campus (MOT15, public detections; see ``bench_mot.py``), then
 projects the recorded set with the exact solver (the default) and with the alternating
 projections that preceded it (``n_iter=1000, tol=1e-6``), and prints per method the largest
@@ -24,15 +24,15 @@ from collections.abc import Callable
 
 import numpy as np
 
-import avtrack.models.base as models_base
+import avtrack.vem.model as models_base
 from avtrack.io.mot import read_mot
-from avtrack.tracking import vem
+from avtrack.vem import updates as vem
 from bench_mot import SEQUENCE, shared_data_dir  # (the script's own folder is on sys.path)
 
 
 def record_inputs() -> list[np.ndarray]:
     """The ``alpha`` of every projection call of one ``track_mot`` run over the sequence."""
-    from avtrack.tracking.ovbt import track_mot
+    from avtrack.visual.ovbt import track_mot
 
     dets = read_mot(shared_data_dir() / "mot15" / SEQUENCE / "det" / "det.txt")
     calls: list[np.ndarray] = []

@@ -45,12 +45,12 @@ from avtrack.metrics.mot import evaluate_mot  # noqa: E402
 from avtrack.robot.base import HeadMotion  # noqa: E402
 from avtrack.robot.head import nao_calibration  # noqa: E402
 from avtrack.robot.servo import JumpPolicy, VisualServo  # noqa: E402
-from avtrack.robot.simulate import (  # noqa: E402
+from avtrack.robot.tracker import RobotTracker, RobotTrackerConfig  # noqa: E402
+from avtrack.simulate.robot import (  # noqa: E402
     estimate_calibration,
     simulate_robot,
     track_recording,
 )
-from avtrack.robot.tracker import RobotTracker, RobotTrackerConfig  # noqa: E402
 
 JUMP = ("jump1", "jump2", "jump3")
 FOLLOW = ("follow1", "follow2", "follow3")

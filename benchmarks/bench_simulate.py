@@ -1,6 +1,6 @@
 """Speed of the whole scene simulator: ``simulate_scene`` + ``write_scene`` of 20 s scenes.
 
-The issue's target: simulating 20 s of a 4-mic, 3-talker scene takes < 20 s on one core.
+The target: simulating 20 s of a 4-mic, 3-talker scene takes < 20 s on one core.
 Timed scenes (all 20 s, 16 kHz, 25 fps):
 
 - ``3 walkers``: a 6 x 5 x 3 m room at T60 = 0.4 s, the free-field ``nao4`` array, three
@@ -42,8 +42,8 @@ import numpy as np  # noqa: E402
 import pyroomacoustics as pra  # noqa: E402
 
 from avtrack.io.base import atomic_write  # noqa: E402
+from avtrack.io.scenario import validate_scenario  # noqa: E402
 from avtrack.simulate.library import named_scenario  # noqa: E402
-from avtrack.simulate.scenario import validate_scenario  # noqa: E402
 from avtrack.simulate.scene import scene_array, simulate_scene, write_scene  # noqa: E402
 
 

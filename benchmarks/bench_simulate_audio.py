@@ -1,6 +1,6 @@
 """Speed of the acoustic scene renderer: 20 s, nao4, 3 walking talkers, T60 = 0.4 s.
 
-The scene of the simulator issue's speed target: a 6 x 5 x 3 m room at T60 = 0.4 s, the
+The scene of the simulator's speed target: a 6 x 5 x 3 m room at T60 = 0.4 s, the
 4-microphone NAO array (``nao4``) near the middle, three talkers walking at 0.5-1 m/s between
 random waypoints, 20 s at 16 kHz. Signals are synthetic and speech-like: Gaussian noise under a
 syllabic (4-6 Hz) amplitude modulation. Two speech patterns are timed:

@@ -1,4 +1,4 @@
-"""Memory and speed of the streaming API over a long simulated recording (issue 9).
+"""Memory and speed of the streaming API over a long simulated recording.
 
 The target: a 20-minute simulated recording is processed by the streaming API with memory
 that stays flat. The script
@@ -121,9 +121,9 @@ def child_av(scene: Path, mapping_path: Path) -> dict:
 
 # ---------------------------------------------------------------------------- parent
 def prepare(work: Path, minutes: float, seed: int) -> tuple[Path, Path]:
-    from avtrack.av.calibration import scene_setup, simulate_calibration, train_mapping
     from avtrack.av.gllim import save_mapping
     from avtrack.cli.demo_av import demo_scenario
+    from avtrack.simulate.calibration import scene_setup, simulate_calibration, train_mapping
     from avtrack.simulate.scene import simulate_scene, write_scene
 
     scene = work / f"meeting-{minutes:g}min-seed{seed}"

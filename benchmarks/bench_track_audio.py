@@ -16,11 +16,11 @@ are summed over the scenes of a dataset.
 * trackers on the DPRTF-EG heat maps, with their default parameters (chosen on seeds
   100–102, not the benchmark seeds), and with their activity threshold δ (eqs. 5.43 / 5.62)
   swept like the peak threshold (ROC-best δ, the same protocol as the frame-wise methods):
-  ``VEM + EG`` (:class:`~avtrack.tracking.doa_gauss.GaussDOATracker`, every candidate
+  ``VEM + EG`` (:class:`~avtrack.doa.gauss.GaussDOATracker`, every candidate
   direction with its weight above the frame's median, thesis §5.4), ``vM-VEM + EG``
-  (:class:`~avtrack.tracking.doa_vonmises.VonMisesDOATracker`, the heat-map peaks, thesis §5.6)
+  (:class:`~avtrack.doa.vonmises.VonMisesDOATracker`, the heat-map peaks, thesis §5.6)
   and the peer ``GM-PHD + EG`` (Stone Soup's GM-PHD tracker,
-  :class:`~avtrack.tracking.gmphd_peer.GMPHDPeer`, on the same peaks as vM-VEM).
+  :class:`~avtrack.doa.gmphd.GMPHDPeer`, on the same peaks as vM-VEM).
 
 RF = (localization time + tracking time) / signal length, measured in this process with BLAS
 on one thread.
@@ -60,21 +60,21 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from avtrack.audio.arrays import load_array  # noqa: E402
-from avtrack.cli.localize import read_array_audio  # noqa: E402
-from avtrack.io.base import atomic_write  # noqa: E402
-from avtrack.io.doa import DOATable, read_doa_csv  # noqa: E402
-from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer  # noqa: E402
-from avtrack.metrics.doa_tracking import TrackingScores, evaluate_tracks  # noqa: E402
-from avtrack.tracking.doa_base import (  # noqa: E402
+from avtrack.audio.recording import read_array_audio  # noqa: E402
+from avtrack.doa.base import (  # noqa: E402
     DEFAULT_OBSERVATIONS,
     DOASequence,
     circular_peaks,
     heatmap_sequence,
     make_tracker,
-    registered_trackers,
-    synthetic_heatmaps,
 )
-from avtrack.tracking.gmphd_peer import GMPHDPeer  # noqa: E402
+from avtrack.doa.base import TRACKERS as REGISTERED  # noqa: E402
+from avtrack.doa.gmphd import GMPHDPeer  # noqa: E402
+from avtrack.io.base import atomic_write  # noqa: E402
+from avtrack.io.doa import DOATable, read_doa_csv  # noqa: E402
+from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer  # noqa: E402
+from avtrack.metrics.doa_tracking import TrackingScores, evaluate_tracks  # noqa: E402
+from avtrack.simulate.heatmaps import synthetic_heatmaps  # noqa: E402
 
 STEP = 4  # localizer frames per tracker frame (32 ms)
 HOP_S = 0.008
@@ -199,7 +199,7 @@ def tracked(
         if tracker == "gmphd":
             trk = GMPHDPeer(frame_period_s=STEP * HOP_S)
         else:
-            config = registered_trackers()[tracker].Config()
+            config = REGISTERED[tracker].Config()
             if activity_threshold is not None:
                 config = dataclasses.replace(config, activity_threshold=activity_threshold)
             trk = make_tracker(tracker, config, frame_period_s=STEP * HOP_S)
@@ -218,7 +218,7 @@ def tracked_roc(scenes, tracker: str, skip: float) -> tuple[float, TrackingScore
     """The tracker's own ROC: its activity threshold δ (eqs. 5.43 / 5.62) swept like the peak
     threshold of the frame-wise methods; ``(δ, scores, RF)`` at the point closest to the
     origin (MD, FA)."""
-    default = registered_trackers()[tracker].Config().activity_threshold
+    default = REGISTERED[tracker].Config().activity_threshold
     best = None
     for thr in default * np.geomspace(0.125, 2.0, 9):
         s, rf, _ = tracked(scenes, tracker, skip, float(thr))

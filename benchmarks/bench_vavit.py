@@ -1,12 +1,14 @@
-"""VAVIT vs the visual-only tracker on simulated AVDIAR-like meetings (seed 003, Tables I-V).
+"""VAVIT vs the visual-only tracker on simulated AVDIAR-like meetings (Ban et al.,
+"Variational Bayesian inference for audio-visual tracking of multiple speakers", Tables I-V).
 
 The suite: seeded AVDIAR-like recordings (:func:`avdiar_like`) in two rooms, a *living room*
 (7 x 6 x 3 m, T60 0.5 s) and a *meeting room* (5.5 x 4.5 x 2.8 m, T60 0.35 s), with 1-4
 people at 1.8-3.4 m from a binaural dummy head (KEMAR HRTFs) and a 97-degree 1920x1200 camera
 (AVDIAR's), taking speech turns; some sit, some walk from the centre of the image to its side
 and back. One white-noise loudspeaker calibration set is simulated per room
-(:func:`avtrack.av.calibration.simulate_calibration`, as AVDIAR's T1 / T2) and a GLLiM mapping
-trained on it (:func:`avtrack.av.calibration.train_mapping`).
+(:func:`avtrack.simulate.calibration.simulate_calibration`, as AVDIAR's T1 / T2) and a GLLiM
+mapping
+trained on it (:func:`avtrack.simulate.calibration.train_mapping`).
 
 Every scene is tracked by the visual-only tracker (OVBT, ``use_audio=False``), by VAVIT and, as
 an ablation, by VAVIT with its audio observations removed (its field-of-view-aware target
@@ -57,7 +59,6 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from avtrack.av.calibration import scene_setup, simulate_calibration, train_mapping  # noqa: E402
 from avtrack.av.diarization import audio_only_diarization  # noqa: E402
 from avtrack.av.features import (  # noqa: E402
     AudioFeatureConfig,
@@ -65,19 +66,20 @@ from avtrack.av.features import (  # noqa: E402
     extract_audio_features,
 )
 from avtrack.av.gllim import AudioImageMapping, load_mapping, save_mapping  # noqa: E402
-from avtrack.io.base import atomic_write  # noqa: E402
-from avtrack.io.mot import MOTData, read_mot  # noqa: E402
-from avtrack.io.rttm import read_rttm  # noqa: E402
-from avtrack.metrics.der import DERComponents, diarization_error_rate  # noqa: E402
-from avtrack.metrics.mot import box_iou, evaluate_mot  # noqa: E402
-from avtrack.simulate.scenario import validate_scenario  # noqa: E402
-from avtrack.simulate.scene import simulate_scene, write_scene  # noqa: E402
-from avtrack.tracking.vavit import (  # noqa: E402
+from avtrack.av.vavit import (  # noqa: E402
     VAVITConfig,
     fov_strip,
     load_scene,
     track_scene,
 )
+from avtrack.io.base import atomic_write  # noqa: E402
+from avtrack.io.mot import MOTData, read_mot  # noqa: E402
+from avtrack.io.rttm import read_rttm  # noqa: E402
+from avtrack.io.scenario import validate_scenario  # noqa: E402
+from avtrack.metrics.der import DERComponents, diarization_error_rate  # noqa: E402
+from avtrack.metrics.mot import box_iou, evaluate_mot  # noqa: E402
+from avtrack.simulate.calibration import scene_setup, simulate_calibration, train_mapping  # noqa: E402
+from avtrack.simulate.scene import simulate_scene, write_scene  # noqa: E402
 
 #: The two AVDIAR-like rooms: dims (m), T60 (s), array (dummy head) position.
 ROOMS = {

@@ -36,8 +36,8 @@ from avtrack.io.datasets import read_seqinfo  # noqa: E402
 from avtrack.io.mot import read_mot  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
 from avtrack.metrics.mot import box_iou, evaluate_mot  # noqa: E402
-from avtrack.models.histograms import detection_histograms  # noqa: E402
-from avtrack.tracking.ovbt import OVBTConfig, track_mot  # noqa: E402
+from avtrack.visual.histograms import detection_histograms  # noqa: E402
+from avtrack.visual.ovbt import OVBTConfig, track_mot  # noqa: E402
 
 SEQUENCES = {"TUD-Campus": "TUD-Campus.mp4", "PETS09-S2L1": "PETS09-S2L1.avi"}
 
@@ -76,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{spent / duration:.3f} |")
     print("\n| sequence | detector | recall (IoU >= 0.5) | precision | frames/s |")
     print("|---|---|---|---|---|")
-    from avtrack.detect import DETECTORS, detect_video, load_detector
+    from avtrack.visual.detect import DETECTORS, detect_video, load_detector
 
     for seq, video in SEQUENCES.items():
         folder = args.data / "mot15" / seq

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from avtrack.audio.arrays import builtin_array, steering_delays
-from avtrack.audio.hrtf import HRIRSet, load_nao_hrir, load_sofa, wrap_azimuth
+from avtrack.audio.hrtf import HRIRSet, load_nao_hrir, load_sofa
 from avtrack.errors import InputError
 
 
@@ -33,12 +33,6 @@ def _phase_delay(a: np.ndarray, b: np.ndarray, fs: int, f_max: float = 3000.0) -
 
 
 # ---------------------------------------------------------------------------- HRIRSet
-
-
-def test_wrap_azimuth():
-    np.testing.assert_allclose(
-        wrap_azimuth([-180, 180, 540, -190, 0, 359]), [180, 180, 180, 170, 0, -1]
-    )
 
 
 def test_hrirset_shapes_and_readonly():

@@ -16,9 +16,9 @@ from pathlib import Path
 
 import numpy as np
 
-from avtrack.av.calibration import scene_setup, simulate_calibration, train_mapping
 from avtrack.av.gllim import AudioImageMapping, save_mapping
-from avtrack.simulate.scenario import validate_scenario
+from avtrack.io.scenario import validate_scenario
+from avtrack.simulate.calibration import scene_setup, simulate_calibration, train_mapping
 from avtrack.simulate.scene import simulate_scene, write_scene
 
 ARRAY = [2.5, 0.5, 1.3]
@@ -79,7 +79,7 @@ def walkout() -> tuple[Path, AudioImageMapping, Path]:
     scene_dir = write_scene(
         simulate_scene(validate_scenario(walkout_scenario())), _root() / "walkout"
     )
-    from avtrack.tracking.vavit import load_scene
+    from avtrack.io.scene import load_scene
 
     sc = load_scene(scene_dir)
     setup = scene_setup(sc.scenario, scene_dir / "scene.yaml")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal as mvn
 
+from avtrack.av.audio_model import AudioGLLiMModel, AudioObservations
 from avtrack.av.gllim import AudioImageMapping, GLLiM
-from avtrack.models.audio_gllim import AudioGLLiMModel, AudioObservations
 
 
 def random_mapping(p: int, d: int = 6, r: int = 3, k: int = 4, seed: int = 0):

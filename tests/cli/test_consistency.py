@@ -1,4 +1,4 @@
-"""One contract for every ``avtrack`` sub-command (issue 9, item 3).
+"""One contract for every ``avtrack`` sub-command.
 
 The commands are found by walking :func:`avtrack.cli.main.build_parser`, so a new command is
 checked without being listed here: ``--help`` with runnable examples, ``--quiet`` /

@@ -11,7 +11,7 @@ import soundfile as sf
 import avtrack.cli.main as cli_main
 from avtrack.cli import track_audio
 from avtrack.io.doa import DOA_HEADER, DOATable, read_doa_csv, write_doa_csv
-from avtrack.tracking.doa_base import synthetic_heatmaps
+from avtrack.simulate.heatmaps import synthetic_heatmaps
 from tests.localize.conftest import SOURCE_AZIMUTH_DEG, render_static_scene
 
 GRID = -180.0 + 5.0 * np.arange(1, 73)

@@ -22,15 +22,15 @@ class HeadsFromTemplates:
 
     def __init__(self):
         from avtrack.av.av163 import AV163View
-        from avtrack.detect.colour import ColourTemplateDetector
         from avtrack.io.av163 import load_av163
+        from avtrack.visual.colour import ColourTemplateDetector
 
         seq = load_av163(shared_data_dir() / "av16.3", 30, 1)
         self.templates = ColourTemplateDetector(seq.histograms[~seq.histogram_is_placeholder])
         self.view = AV163View(seq)
 
     def detect(self, frame):
-        from avtrack.phd.likelihood import TEMPLATE_MOUTH_OFFSET
+        from avtrack.io.av163 import TEMPLATE_MOUTH_OFFSET
 
         b, s = self.templates.detect(frame)
         mouth = np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + TEMPLATE_MOUTH_OFFSET * b[:, 3]])

@@ -7,7 +7,7 @@ import pytest
 
 from avtrack.cli.main import main
 from avtrack.io.mot import read_mot, write_mot
-from tests.tracking.synthetic import crossing_scene
+from tests.visual.synthetic import crossing_scene
 
 
 @pytest.fixture

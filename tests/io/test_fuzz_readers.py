@@ -32,7 +32,7 @@ from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
 from avtrack.io.locata import load_locata_recording
 from avtrack.io.mot import read_mot
 from avtrack.io.rttm import RTTMSegment, read_rttm, write_rttm
-from avtrack.simulate.scenario import load_scenario
+from avtrack.io.scenario import load_scenario
 from avtrack.simulate.speech import load_utterances
 from tests.io.test_locata import make_recording
 

@@ -11,13 +11,13 @@ import pytest
 from avtrack.errors import InputError
 from avtrack.io.rttm import (
     RTTMSegment,
+    SpeechSegment,
     merge_segments,
     read_rttm,
     rttm_to_speech,
     speech_to_rttm,
     write_rttm,
 )
-from avtrack.simulate.speech import SpeechSegment
 
 
 def where(path: Path, row: int) -> str:

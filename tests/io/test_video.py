@@ -8,7 +8,7 @@ import pytest
 from avtrack.errors import InputError
 from avtrack.io.mot import MOTData, write_mot
 from avtrack.io.video import iter_frames, probe_video
-from avtrack.models.histograms import box_histograms, detection_histograms
+from avtrack.visual.histograms import box_histograms, detection_histograms
 
 
 def write_video(path, n_frames=12, size=(96, 64), fps=10.0):

@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from avtrack.config import build_config
 from avtrack.io.av163 import load_av163
 from avtrack.metrics.ospa import ospa_sequence
 from avtrack.phd import LPFSMCPHD, NPFSMCPHD, PHD_FILTERS, PHDConfig, PHDEstimate
@@ -21,7 +22,8 @@ NAMES = sorted(PHD_FILTERS)
 def test_registry():
     assert PHD_FILTERS == {"lpf": LPFSMCPHD, "npf": NPFSMCPHD}
     with pytest.raises(ValueError, match="already registered"):
-        register_phd_filter("lpf")(LPFSMCPHD)
+        register_phd_filter("lpf")(NPFSMCPHD)
+    assert register_phd_filter("lpf")(LPFSMCPHD) is LPFSMCPHD  # the same class again: no-op
 
 
 @pytest.mark.parametrize("name", NAMES)
@@ -122,11 +124,11 @@ def test_config_validation(field, value, message):
         PHDConfig(**{field: value})
 
 
-def test_config_from_dict():
-    cfg = PHDConfig.from_dict({"sigma_visual": 3.0, "image_size": [640, 480]})
+def test_config_from_mapping():
+    cfg = build_config(PHDConfig, {"sigma_visual": 3.0, "image_size": [640, 480]})
     assert cfg == dataclasses.replace(PHDConfig(), sigma_visual=3.0, image_size=(640, 480))
-    with pytest.raises(ValueError, match="unknown fields"):
-        PHDConfig.from_dict({"sigma": 3.0})
+    with pytest.raises(ValueError, match="unknown field"):
+        build_config(PHDConfig, {"sigma": 3.0})
 
 
 def test_kmeans():

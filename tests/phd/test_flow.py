@@ -1,4 +1,4 @@
-"""The particle flow (seed 004 eqs. 6–9): Kalman-update parity on a linear-Gaussian single
+"""The particle flow (Liu et al. eqs. 6–9): Kalman-update parity on a linear-Gaussian single
 target, the Jacobian determinant, and the mixture flow's reduction to the affine one."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""SMC-PHD core (seed 004 eqs. 4–5, 11–13, 18–20): hand-computed updates, ESS, resampling,
+"""SMC-PHD core (Liu et al. eqs. 4–5, 11–13, 18–20): hand-computed updates, ESS, resampling,
 weighted moments, births."""
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ from avtrack.robot.calibration import (
     relative_extrinsics,
 )
 from avtrack.robot.head import nao_calibration, twist_exp
-from avtrack.robot.simulate import estimate_calibration, simulate_chessboard_extrinsics
+from avtrack.simulate.robot import estimate_calibration, simulate_chessboard_extrinsics
 
 
 def _angle_deg(a, b):

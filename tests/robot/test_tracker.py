@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
+from avtrack.config import build_config
 from avtrack.robot.base import FaceObservations, HeadMotion
 from avtrack.robot.tracker import FaceObservationModel, RobotTracker, RobotTrackerConfig
 
@@ -102,8 +103,8 @@ def test_config_and_input_validation(head):
         RobotTrackerConfig(control="magic")
     with pytest.raises(ValueError, match="dyn_std_pos must be a positive number"):
         RobotTrackerConfig(dyn_std_pos=-1.0)
-    with pytest.raises(ValueError, match="unknown robot tracker parameter"):
-        RobotTrackerConfig.from_dict({"gain": 1})
+    with pytest.raises(ValueError, match="unknown field"):
+        build_config(RobotTrackerConfig, {"gain": 1})
     tracker = RobotTracker(head)
     with pytest.raises(TypeError, match="faces must be FaceObservations"):
         tracker.step(np.zeros((1, 3)))

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from avtrack.simulate.camera import PinholeCamera
+from avtrack.io.camera import PinholeCamera
 from avtrack.simulate.detections import (
     DetectorConfig,
     SimulatedDetections,

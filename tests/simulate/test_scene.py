@@ -11,12 +11,12 @@ import yaml
 
 from avtrack.cli.main import main
 from avtrack.errors import InputError
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.doa import read_doa_csv
 from avtrack.io.mot import read_mot
 from avtrack.io.rttm import read_rttm
-from avtrack.simulate.camera import PinholeCamera
+from avtrack.io.scenario import load_scenario, validate_scenario
 from avtrack.simulate.library import named_scenario
-from avtrack.simulate.scenario import load_scenario, validate_scenario
 from avtrack.simulate.scene import simulate_scene, write_scene
 
 

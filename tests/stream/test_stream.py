@@ -9,17 +9,17 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from avtrack.localize import make_localizer
-from avtrack.simulate.library import named_scenario
-from avtrack.simulate.scenario import validate_scenario
-from avtrack.simulate.scene import simulate_scene
-from avtrack.stream import AVStream, DOAStream
-from avtrack.tracking.doa_base import (
+from avtrack.doa.base import (
     DEFAULT_OBSERVATIONS,
     PEAK_FLOOR,
     heatmap_sequence,
     make_tracker,
 )
+from avtrack.io.scenario import validate_scenario
+from avtrack.localize import make_localizer
+from avtrack.simulate.library import named_scenario
+from avtrack.simulate.scene import simulate_scene
+from avtrack.stream import AVStream, DOAStream
 from tests.av.scenes import walkout
 
 
@@ -133,7 +133,7 @@ def test_doa_stream_memory_stays_flat():
 
 # ---------------------------------------------------------------------------- audio-visual
 def _scene_inputs():
-    from avtrack.tracking.vavit import load_scene
+    from avtrack.io.scene import load_scene
 
     scene_dir, mapping, _ = walkout()
     return load_scene(scene_dir), mapping
@@ -147,7 +147,7 @@ def _frame_detections(sc):
 
 
 def test_av_stream_equals_track_scene_in_real_time_order():
-    from avtrack.tracking.vavit import track_scene
+    from avtrack.av.vavit import track_scene
 
     sc, mapping = _scene_inputs()
     batch = track_scene(sc.path, mapping, scene=sc)

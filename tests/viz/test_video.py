@@ -7,8 +7,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
-from avtrack.simulate.camera import PinholeCamera
 from avtrack.viz import video
 from avtrack.viz.video import (
     TAB10_BGR,
@@ -286,9 +286,10 @@ def _tiny_scenario() -> dict:
 
 
 def test_scene_video_end_to_end(tmp_path):
-    from avtrack.simulate.scenario import validate_scenario
+    from avtrack.av.vavit import track_scene
+    from avtrack.io.scenario import validate_scenario
+    from avtrack.io.scene import load_scene
     from avtrack.simulate.scene import simulate_scene, write_scene
-    from avtrack.tracking.vavit import load_scene, track_scene
 
     scene_dir = write_scene(simulate_scene(validate_scenario(_tiny_scenario())), tmp_path / "s")
     inputs = load_scene(scene_dir)

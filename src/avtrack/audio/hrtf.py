@@ -50,6 +50,7 @@ import scipy.io
 import scipy.signal
 
 from avtrack.errors import InputError
+from avtrack.io.doa import wrap_azimuth
 
 NAO_HRIR_FILE = "nao/HRIR_NAO_48kHz_-175_5_180_degrees.mat"
 KEMAR_SOFA_FILE = "hrtf/mit_kemar_normal_pinna.sofa"
@@ -57,12 +58,6 @@ BUILTIN_HRIRS = ("nao", "kemar")
 
 # the file's channels are LOCATA mics (5, 8, 12, 11); this permutation gives nao4's (5, 8, 11, 12)
 _NAO_CHANNELS_TO_NAO4 = (0, 1, 3, 2)
-
-
-def wrap_azimuth(az_deg: np.ndarray | float) -> np.ndarray:
-    """Azimuths wrapped to (-180, 180] degrees (same shape as the input)."""
-    a = np.mod(np.asarray(az_deg, dtype=float), 360.0)  # [0, 360)
-    return np.where(a > 180.0, a - 360.0, a)
 
 
 def direction_vectors(az_deg: np.ndarray, el_deg: np.ndarray) -> np.ndarray:

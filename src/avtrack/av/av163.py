@@ -1,6 +1,6 @@
 r"""An AV16.3 camera as the direction-space person tracker sees it.
 
-The person tracker (:mod:`avtrack.tracking.persons`) keeps persons as directions from the
+The person tracker (:mod:`avtrack.av.persons`) keeps persons as directions from the
 microphone array and meets the camera through :class:`~avtrack.av.geometry.CameraGeometry`: an
 ideal pinhole camera (yaw and pitch, no roll, no lens distortion) in the array's frame. An
 AV16.3 camera is a calibrated projection ``Pmat`` (Bouguet's toolbox, from the calibration
@@ -10,14 +10,14 @@ and a few degrees of roll. :class:`AV163View` splits it exactly into
 1. the lens distortion (undone on the way in, redone on the way out),
 2. an in-plane rotation of the normalised image coordinates by the roll angle (a rotation
    about the optical axis: :math:`R = R_{\mathrm{roll}} R_{\mathrm{yaw,pitch}}`), and
-3. a :class:`~avtrack.simulate.camera.PinholeCamera` with the calibration's focal lengths and
+3. a :class:`~avtrack.io.camera.PinholeCamera` with the calibration's focal lengths and
    principal point, its optical centre and yaw / pitch in the array frame.
 
 The array frame is the room frame moved to array 1's centre
-(:data:`~avtrack.phd.likelihood.AV163_ARRAY_CENTRE`, the frame of the ``Z_doa`` azimuths).
+(:data:`~avtrack.io.av163.AV163_ARRAY_CENTRE`, the frame of the ``Z_doa`` azimuths).
 
 Depth. A head's distance cannot be read from the size of a fixed-size template window, but
-AV16.3's mouths are all at about the same height (:data:`~avtrack.phd.likelihood.
+AV16.3's mouths are all at about the same height (:data:`~avtrack.io.av163.
 AV163_MOUTH_HEIGHT` above the array plane): a mouth pixel's ray meets that plane at the mouth.
 :meth:`AV163View.mouth_boxes` turns detections into head boxes centred on their mouth points
 and sized for that depth, which is what the geometry's box back-projection expects.
@@ -28,9 +28,8 @@ from __future__ import annotations
 import numpy as np
 
 from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
-from avtrack.io.av163 import IMAGE_SIZE, AV163Sequence
-from avtrack.phd.likelihood import AV163_ARRAY_CENTRE, AV163_MOUTH_HEIGHT
-from avtrack.simulate.camera import PinholeCamera
+from avtrack.io.av163 import AV163_ARRAY_CENTRE, AV163_MOUTH_HEIGHT, IMAGE_SIZE, AV163Sequence
+from avtrack.io.camera import PinholeCamera
 
 
 class AV163View:
@@ -156,7 +155,7 @@ def track_av163(
     """The direction-space person tracker on an AV16.3 sequence from its real video.
 
     Visual: a detector on every frame (default: the colour templates of the sequence's
-    ``hist_temp_16bins``, :class:`~avtrack.detect.colour.ColourTemplateDetector`), each box's
+    ``hist_temp_16bins``, :class:`~avtrack.visual.colour.ColourTemplateDetector`), each box's
     mouth point turned into a head box at the mouth plane's depth (:meth:`AV163View.
     mouth_boxes`), with the hue-saturation histogram of the detected window as appearance.
     Audio: the sequence's DOA measurements (``Z_doa``, array 1) as the peaks of each frame.
@@ -180,14 +179,14 @@ def track_av163(
     """
     from dataclasses import replace
 
-    from avtrack.detect.colour import ColourTemplateDetector
+    from avtrack.av.persons import PersonConfig
+    from avtrack.av.persons_scene import track_persons
     from avtrack.errors import InputError
+    from avtrack.io.av163 import FACE_MOUTH_OFFSET, TEMPLATE_MOUTH_OFFSET
     from avtrack.io.mot import MOTData
     from avtrack.io.video import iter_frames, probe_video
-    from avtrack.models.histograms import box_histograms
-    from avtrack.phd.likelihood import FACE_MOUTH_OFFSET, TEMPLATE_MOUTH_OFFSET
-    from avtrack.tracking.persons import PersonConfig
-    from avtrack.tracking.persons_scene import track_persons
+    from avtrack.visual.colour import ColourTemplateDetector
+    from avtrack.visual.histograms import box_histograms
 
     info = probe_video(video)
     if tuple(info.image_size) != tuple(IMAGE_SIZE):

@@ -8,7 +8,7 @@ that the camera projects.
 
 Frames. Room frame: metres, z up. The array sits at ``array_position`` with its x axis turned
 ``array_yaw_deg`` about room z (the convention of :mod:`avtrack.simulate.scene`). The camera is
-a :class:`~avtrack.simulate.camera.PinholeCamera` (room frame, OpenCV axes). A point ``X``
+a :class:`~avtrack.io.camera.PinholeCamera` (room frame, OpenCV axes). A point ``X``
 (room) has array coordinates :math:`A = R_z(-\psi)(X - P)` and
 
 .. math::
@@ -34,7 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from avtrack.simulate.camera import PinholeCamera
+from avtrack.io.camera import PinholeCamera
+from avtrack.io.doa import wrap_azimuth
 
 #: Head height in metres assumed when turning a head box's pixel height into a depth
 #: (the simulator's head boxes are 0.18 x 0.24 m).
@@ -47,12 +48,6 @@ DEFAULT_DISTANCE_M = 2.0
 def _rz(deg: float) -> np.ndarray:
     c, s = np.cos(np.deg2rad(deg)), np.sin(np.deg2rad(deg))
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def wrap_deg(angle: np.ndarray | float) -> np.ndarray:
-    """Angles in degrees wrapped to (-180, 180]."""
-    a = np.asarray(angle, dtype=float)
-    return 180.0 - np.mod(180.0 - a, 360.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -110,7 +105,7 @@ class CameraGeometry:
         horiz = np.hypot(a[:, 0], a[:, 1])
         az = np.degrees(np.arctan2(a[:, 1], a[:, 0]))
         el = np.degrees(np.arctan2(a[:, 2], horiz))
-        return wrap_deg(az), el, np.linalg.norm(a, axis=1)
+        return wrap_azimuth(az), el, np.linalg.norm(a, axis=1)
 
     def direction_to_room(
         self, az_deg: np.ndarray, el_deg: np.ndarray, distance: np.ndarray

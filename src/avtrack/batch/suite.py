@@ -30,22 +30,16 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import yaml
 
 from avtrack.errors import InputError
+from avtrack.io.base import read_yaml_file
+from avtrack.registry import Registry
 
 #: task name -> function(item) -> dict of scores (registered with @register_task).
-TASKS: dict[str, Callable[[dict], dict[str, Any]]] = {}
+TASKS: Registry[Callable[[dict], dict[str, Any]]] = Registry("batch task")
 
-
-def register_task(name: str) -> Callable:
-    """Register ``fn(item) -> scores`` as the task ``name``."""
-
-    def deco(fn: Callable[[dict], dict[str, Any]]) -> Callable[[dict], dict[str, Any]]:
-        TASKS[name] = fn
-        return fn
-
-    return deco
+#: Decorator registering ``fn(item) -> scores`` as a task under a name.
+register_task = TASKS.register
 
 
 #: Suites usable by name (``avtrack bench smoke``).
@@ -73,14 +67,7 @@ def load_suite(path: str | Path) -> tuple[str, list[dict]]:
     if str(path) in BUILTIN_SUITES:
         return expand_suite(BUILTIN_SUITES[str(path)])
     path = Path(path)
-    if not path.is_file():
-        raise InputError("suite file not found", path)
-    try:
-        raw = yaml.safe_load(path.read_bytes())
-    except yaml.YAMLError as exc:
-        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
-        raise InputError(f"not valid YAML ({problem})", path) from None
-    return expand_suite(raw, path)
+    return expand_suite(read_yaml_file(path, "suite"), path)
 
 
 def expand_suite(raw: Any, path: str | Path | None = None) -> tuple[str, list[dict]]:
@@ -147,8 +134,8 @@ def _resolve_input(spec: Any, base: Path, path, field: str) -> str:
 
 def materialise(spec: str, workdir: Path) -> Path:
     """The folder of an input: itself, or a named scene simulated into ``workdir``."""
+    from avtrack.io.scenario import validate_scenario
     from avtrack.simulate.library import SCENARIOS, named_scenario
-    from avtrack.simulate.scenario import validate_scenario
     from avtrack.simulate.scene import simulate_scene, write_scene
 
     name = spec.split(":")[0]
@@ -194,10 +181,11 @@ def _short(spec: str) -> str:
 @register_task("track-mot")
 def _task_track_mot(item: dict) -> dict[str, Any]:
     """OVBT on a MOTChallenge sequence or a scene directory's detections; MOT scores."""
+    from avtrack.config import build_config
     from avtrack.io.datasets import find_seqinfo, read_seqinfo
     from avtrack.io.mot import read_mot
     from avtrack.metrics.mot import evaluate_mot
-    from avtrack.tracking.ovbt import OVBTConfig, track_mot
+    from avtrack.visual.ovbt import OVBTConfig, track_mot
 
     folder = Path(item["folder"])
     params = dict(item["params"])
@@ -216,10 +204,10 @@ def _task_track_mot(item: dict) -> dict[str, Any]:
         gt = read_mot(folder / "gt" / "gt.txt", "gt")
         info = find_seqinfo(folder / "det" / "det.txt")
         seq = read_seqinfo(info) if info else {}
-        size = (seq["width"], seq["height"]) if "width" in seq else (640, 480)
+        size = (int(seq["width"]), int(seq["height"])) if "width" in seq else (640, 480)
         app = None
         bench = "MOT15"
-    res = track_mot(det, app, OVBTConfig.from_dict(params), image_size=size)
+    res = track_mot(det, app, build_config(OVBTConfig, params), image_size=size)
     s = evaluate_mot(gt, res, benchmark=bench).as_dict()
     return {k: s[k] for k in ("MOTA", "MOTP", "IDF1", "HOTA", "FP", "FN", "IDSW")}
 

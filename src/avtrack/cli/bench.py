@@ -7,7 +7,7 @@ import time
 from pathlib import Path
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
 
 EXAMPLES = """\
@@ -37,12 +37,13 @@ rows are the same whichever backend ran them (only the 'seconds' column differs)
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "bench",
         help="run a suite of scenes x tasks x parameters (locally or on a Dask cluster)",
-        description="Batch evaluation: a suite of inputs x tasks x parameters, one results table.",
+        description="""\
+Batch evaluation: a suite of inputs x tasks x parameters, one results table.""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("suite", metavar="SUITE", help="a suite YAML file, or a built-in: smoke")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="DIR")
@@ -50,8 +51,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--scheduler", metavar="ADDRESS", help="Dask scheduler address (tcp://host:port)"
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
     add_config_option(p)
 
 

@@ -15,12 +15,12 @@ import time
 from pathlib import Path
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.io.base import atomic_write
 from avtrack.io.datasets import find_shared_data
 from avtrack.io.mot import read_mot, write_mot
 from avtrack.metrics.mot import evaluate_mot, format_table
-from avtrack.tracking.ovbt import track_mot
+from avtrack.visual.ovbt import track_mot
 
 EXAMPLES = """\
 examples:
@@ -42,14 +42,16 @@ IMAGE_SIZE = (640, 480)  # MOT15 TUD-Campus
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "demo", help="simulate a meeting, track and diarize it, print the scores, write a report",
-        description=("Simulate a meeting (3 people, NAO-like 4-microphone array, camera), track "
-                     "and diarize it with\nthe audio-visual VEM tracker, localize the talkers, "
-                     "print MOTA, IDF1, DER and DOA MAE,\nand write DIR/index.html. With --mot: "
-                     "track the real MOT15 TUD-Campus detections\n(../shared/data or "
-                     "$AVTRACK_SHARED_DATA) with the visual tracker instead."),
-        epilog=EXAMPLES, formatter_class=HelpFormatter)
+    p = add_command(
+        subparsers,
+        "demo",
+        help="simulate a meeting, track and diarize it, print the scores, write a report",
+        description="""\
+Simulate a meeting (3 people, NAO-like 4-microphone array, camera), track and diarize it with
+the audio-visual VEM tracker, localize the talkers, print MOTA, IDF1, DER and DOA MAE,
+and write DIR/index.html. With --mot: track the real MOT15 TUD-Campus detections
+(../shared/data or $AVTRACK_SHARED_DATA) with the visual tracker instead.""",
+        epilog=EXAMPLES)
     p.add_argument("-o", "--output", type=Path, default=Path("avtrack-demo"), metavar="DIR",
                    help="output folder (default: %(default)s)")
     p.add_argument("--mot", action="store_true", help="the MOT15 TUD-Campus visual demo")
@@ -58,8 +60,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="scene length (default 20)")
     p.add_argument("--people", type=int, default=3, choices=(2, 3, 4), metavar="N",
                    help="people in the meeting: 2, 3 or 4 (default 3)")
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
     add_config_option(p)
 
 

@@ -29,8 +29,8 @@ def demo_scenario(seed: int, duration: float, people: int = 3) -> dict:
     ...`` that gives ``people`` people is used, so the demo scene depends on ``seed`` (and
     ``people``) only.
     """
+    from avtrack.io.scenario import validate_scenario
     from avtrack.simulate.library import named_scenario
-    from avtrack.simulate.scenario import validate_scenario
 
     for k in range(100):
         raw = named_scenario("meeting", seed + 1000 * k, duration)
@@ -51,23 +51,23 @@ def _progress(step: int, quiet: bool) -> float:
 
 def run_av(args: argparse.Namespace) -> int:
     from avtrack.audio.arrays import load_array
-    from avtrack.cli.localize import localize_signal
-    from avtrack.io.doa import read_doa_csv
-    from avtrack.io.mot import read_mot, write_mot
-    from avtrack.io.rttm import read_rttm, write_rttm
-    from avtrack.localize import make_localizer, peak_table
-    from avtrack.metrics.der import diarization_error_rate
-    from avtrack.metrics.doa import evaluate_doa
-    from avtrack.metrics.mot import evaluate_mot
-    from avtrack.simulate.scene import simulate_scene, write_scene
-    from avtrack.tracking.doa_base import DEFAULT_OBSERVATIONS, heatmap_sequence, make_tracker
-    from avtrack.tracking.persons_scene import (
+    from avtrack.av.persons_scene import (
         audio_peaks,
         localizer_grid,
         scene_geometry,
         track_scene_persons,
     )
-    from avtrack.tracking.vavit import load_scene
+    from avtrack.cli.localize import localize_signal
+    from avtrack.doa.base import DEFAULT_OBSERVATIONS, heatmap_sequence, make_tracker
+    from avtrack.io.doa import read_doa_csv
+    from avtrack.io.mot import read_mot, write_mot
+    from avtrack.io.rttm import read_rttm, write_rttm
+    from avtrack.io.scene import load_scene
+    from avtrack.localize import make_localizer, peak_table
+    from avtrack.metrics.der import diarization_error_rate
+    from avtrack.metrics.doa import evaluate_doa
+    from avtrack.metrics.mot import evaluate_mot
+    from avtrack.simulate.scene import simulate_scene, write_scene
     from avtrack.viz import report
     from avtrack.viz.video import render_scene_video
 

@@ -12,7 +12,7 @@ import argparse
 import json
 from pathlib import Path
 
-from avtrack.cli.base import HelpFormatter, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.mot import read_mot
@@ -69,26 +69,25 @@ VERBOSE_COLUMNS = ("IDP", "IDR", "DetA", "AssA", "PT", "n_gt_ids", "n_frames")
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    parser = subparsers.add_parser(
+    parser = add_command(
+        subparsers,
         "eval",
         help="score a result against ground truth",
-        description="Score a result against ground truth. Choose the task below.",
+        description="""\
+Score a result against ground truth. Choose the task below.""",
         epilog=EVAL_EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     tasks = parser.add_subparsers(dest="eval_task", metavar="TASK", required=True)
 
-    mot = tasks.add_parser(
+    mot = add_command(
+        tasks,
         "mot",
         help="MOTChallenge tracking scores: MOTA, MOTP, IDF1, HOTA, FP, FN, IDSW ...",
-        description=(
-            "Score a tracker result against MOTChallenge ground truth, exactly as the official\n"
-            "TrackEval kit does (CLEAR-MOT, identity and HOTA metrics; a match needs IoU >= 0.5)."
-            "\nFiles are MOTChallenge text: frame,id,left,top,width,height,conf,... (1-based "
-            "frames)."
-        ),
+        description="""\
+Score a tracker result against MOTChallenge ground truth, exactly as the official
+TrackEval kit does (CLEAR-MOT, identity and HOTA metrics; a match needs IoU >= 0.5).
+Files are MOTChallenge text: frame,id,left,top,width,height,conf,... (1-based frames).""",
         epilog=MOT_EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     mot.add_argument("gt", type=Path, metavar="GT.txt", help="ground-truth file (gt/gt.txt)")
     mot.add_argument("result", type=Path, metavar="RES.txt", help="tracker result file")
@@ -107,23 +106,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="sequence length (default: the last frame in either file)",
     )
     mot.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(mot)
-    mot.set_defaults(func=run_mot)
+    add_common(mot, run_mot)
     add_config_option(mot)
 
-    doa = tasks.add_parser(
+    doa = add_command(
+        tasks,
         "doa",
         help="speaker localization scores: miss-detection and false-alarm rates, MAE",
-        description=(
-            "Score frame-wise DOA estimates against ground truth as thesis §5.5.1 does: per\n"
-            "frame, estimates and active speakers are matched greedily; a match within 15\n"
-            "degrees is a success (MAE over successes), unmatched speakers are misses,\n"
-            "unmatched estimates false alarms. Both files are DOA CSV\n"
-            "(frame,time_s,id,azimuth_deg,elevation_deg,weight,active); frames are aligned by\n"
-            "time."
-        ),
+        description="""\
+Score frame-wise DOA estimates against ground truth as thesis §5.5.1 does: per
+frame, estimates and active speakers are matched greedily; a match within 15
+degrees is a success (MAE over successes), unmatched speakers are misses,
+unmatched estimates false alarms. Both files are DOA CSV
+(frame,time_s,id,azimuth_deg,elevation_deg,weight,active); frames are aligned by
+time.""",
         epilog=DOA_EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     doa.add_argument("gt", type=Path, metavar="GT.csv", help="ground truth (gt/doa.csv)")
     doa.add_argument("estimates", type=Path, metavar="DOA.csv", help="localizer output")
@@ -140,20 +137,18 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--success-deg", type=float, default=15.0, metavar="DEG", help="default: %(default)s"
     )
     doa.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(doa)
-    doa.set_defaults(func=run_doa)
+    add_common(doa, run_doa)
     add_config_option(doa)
 
-    der = tasks.add_parser(
+    der = add_command(
+        tasks,
         "der",
         help="diarization error rate of an RTTM file (missed, false alarm, confusion)",
-        description=(
-            "Diarization error rate (NIST RT definition, as pyannote.metrics computes it) of a\n"
-            "hypothesis RTTM against a reference RTTM: (missed + false alarm + speaker\n"
-            "confusion) / total reference speech."
-        ),
+        description="""\
+Diarization error rate (NIST RT definition, as pyannote.metrics computes it) of a
+hypothesis RTTM against a reference RTTM: (missed + false alarm + speaker
+confusion) / total reference speech.""",
         epilog=DER_EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     der.add_argument("reference", type=Path, metavar="REF.rttm", help="reference speaker turns")
     der.add_argument("hypothesis", type=Path, metavar="HYP.rttm", help="hypothesis turns")
@@ -167,23 +162,21 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="do not score regions where reference speakers overlap",
     )
     der.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(der)
-    der.set_defaults(func=run_der)
+    add_common(der, run_der)
     add_config_option(der)
 
-    per = tasks.add_parser(
+    per = add_command(
+        tasks,
         "persons",
         help="direction accuracy of persons.csv while persons are out of the camera's view",
-        description=(
-            "Score the directions of persons.csv (avtrack track-av) against a scene's ground\n"
-            "truth (SCENE_DIR/gt/doa.csv, SCENE_DIR/gt/gt.txt) for the persons the camera does\n"
-            "not see: at every frame, ground-truth persons and tracked persons are matched one\n"
-            "to one on azimuth (matches beyond --gate refused); the mean absolute azimuth error\n"
-            "of the out-of-view persons (lower is better) and the share of their frames matched\n"
-            "(coverage, higher is better)."
-        ),
+        description="""\
+Score the directions of persons.csv (avtrack track-av) against a scene's ground
+truth (SCENE_DIR/gt/doa.csv, SCENE_DIR/gt/gt.txt) for the persons the camera does
+not see: at every frame, ground-truth persons and tracked persons are matched one
+to one on azimuth (matches beyond --gate refused); the mean absolute azimuth error
+of the out-of-view persons (lower is better) and the share of their frames matched
+(coverage, higher is better).""",
         epilog=PERSONS_EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     per.add_argument("scene", type=Path, metavar="SCENE_DIR", help="scene directory")
     per.add_argument("persons", type=Path, metavar="PERSONS.csv", help="track-av output")
@@ -193,8 +186,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     per.add_argument("--gate", type=float, default=30.0, metavar="DEG",
                      help="largest azimuth difference of a match (default %(default)s)")
     per.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(per)
-    per.set_defaults(func=run_persons)
+    add_common(per, run_persons)
     add_config_option(per)
 
 
@@ -317,10 +309,11 @@ def run_der(args: argparse.Namespace) -> int:
 
 
 def run_persons(args: argparse.Namespace) -> int:
+    from avtrack.av.vavit import fov_strip
     from avtrack.io.doa import read_doa_csv
     from avtrack.io.persons import read_persons_csv
+    from avtrack.io.scene import load_scene
     from avtrack.metrics.persons import offscreen_direction_error, truth_per_frame
-    from avtrack.tracking.vavit import fov_strip, load_scene
 
     if not 0 < args.fov_fraction <= 1:
         raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")

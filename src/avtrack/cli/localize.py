@@ -10,26 +10,22 @@ Optionally draws the heat map (thesis Fig. 5.2 b–e) and scores the peaks again
 from __future__ import annotations
 
 import argparse
-import sys
 import time
-from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from avtrack.audio.arrays import MicArray, load_array
+from avtrack.audio.arrays import load_array
+from avtrack.audio.recording import FS, read_array_audio
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_array_option, add_common, load_config
+from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.config import load_config
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write
-from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
-from avtrack.localize import LOCALIZERS, DirectionGrid, HeatMaps, make_localizer, peak_table
+from avtrack.io.doa import read_doa_csv, write_doa_csv
+from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer, peak_table
 from avtrack.metrics.doa import evaluate_doa, roc_sweep
-
-FS = 16000
-CLIP_LEVEL = 0.999
-CLIP_FRACTION = 0.001
+from avtrack.viz.plots import plot_heatmap
 
 EXAMPLES = """\
 examples:
@@ -56,18 +52,17 @@ The --config YAML holds the method's parameters, e.g. for dprtf-eg:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "localize",
         help="frame-wise multi-speaker localization from a microphone-array WAV",
-        description=(
-            "Frame-wise localization of several speakers (thesis ch. 5): heat maps over "
-            "candidate\nazimuths every 8 ms, their peaks written as DOA CSV rows "
-            "(frame,time_s,id,azimuth_deg,\nelevation_deg,weight,active; id -1). Azimuths are "
-            "in the array frame, counter-clockwise\nfrom x, in (-180, 180]. WAV channel k is "
-            "microphone k of --array; audio at another\nrate than 16 kHz is resampled."
-        ),
+        description="""\
+Frame-wise localization of several speakers (thesis ch. 5): heat maps over candidate
+azimuths every 8 ms, their peaks written as DOA CSV rows (frame,time_s,id,azimuth_deg,
+elevation_deg,weight,active; id -1). Azimuths are in the array frame, counter-clockwise
+from x, in (-180, 180]. WAV channel k is microphone k of --array; audio at another
+rate than 16 kHz is resampled.""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("audio", type=Path, metavar="AUDIO.wav", help="multichannel recording")
     add_array_option(p)
@@ -134,60 +129,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
-# -- input -------------------------------------------------------------------------------
-def read_array_audio(
-    path: Path, array: MicArray, allow_clipping: bool = False, quiet: bool = False
-) -> np.ndarray:
-    """Read a WAV for ``array`` as ``(n_mics, n_samples)`` at 16 kHz, with clear errors.
-
-    Raises
-    ------
-    InputError
-        Unreadable file, wrong channel count, empty, NaN/inf, silent, or clipped (more than
-        0.1 % of the samples at full scale) unless ``allow_clipping``.
-    """
-    import soundfile
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("audio file not found", path)
-    try:
-        data, fs = soundfile.read(str(path), dtype="float64", always_2d=True)
-    except (RuntimeError, soundfile.LibsndfileError, TypeError, ValueError) as exc:
-        raise InputError(f"cannot read the audio: {exc}", path) from None
-    x = np.ascontiguousarray(data.T)
-    if x.shape[0] != array.n_mics:
-        raise InputError(
-            f"has {x.shape[0]} channel(s) but array {array.name!r} has {array.n_mics} "
-            "microphones (WAV channel k is microphone k)",
-            path,
-        )
-    if x.shape[1] == 0:
-        raise InputError("has no samples", path)
-    if not np.all(np.isfinite(x)):
-        raise InputError("contains NaN or infinite samples", path)
-    peak = np.max(np.abs(x))
-    if peak == 0:
-        raise InputError("is silent (all samples are zero)", path)
-    clipped = np.count_nonzero(np.abs(x) >= CLIP_LEVEL) / x.size
-    if clipped > CLIP_FRACTION and not allow_clipping:
-        raise InputError(
-            f"is clipped ({100 * clipped:.2f} % of the samples at full scale); phases of "
-            "clipped audio are unreliable (use --allow-clipping to go on anyway)",
-            path,
-        )
-    if fs != FS:
-        import scipy.signal
-
-        ratio = Fraction(FS, int(fs))
-        if not quiet:
-            print(f"avtrack: note: {path} is at {fs} Hz; resampling to {FS} Hz", file=sys.stderr)
-        x = scipy.signal.resample_poly(x, ratio.numerator, ratio.denominator, axis=1)
-    return x
 
 
 def load_method_config(method: str, path: Path | None) -> Any:
@@ -219,7 +163,7 @@ def make_grid(step_deg: float, elevations: str | None) -> DirectionGrid:
         return base
     try:
         values = sorted({float(v) for v in elevations.split(",") if v.strip()})
-        return DirectionGrid(base.azimuth_values, values)
+        return DirectionGrid(base.azimuth_values, np.asarray(values))
     except ValueError as exc:
         raise InputError(
             f"--elevations: expected comma-separated degrees in [-90, 90], got "
@@ -227,57 +171,6 @@ def make_grid(step_deg: float, elevations: str | None) -> DirectionGrid:
         ) from None
 
 
-# -- output ------------------------------------------------------------------------------
-def plot_heatmap(
-    path: Path,
-    heatmaps: HeatMaps,
-    grid: DirectionGrid,
-    title: str = "",
-    truth: DOATable | None = None,
-) -> None:
-    """Heat map over time and azimuth (thesis Fig. 5.2 b–e), written atomically as PNG."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise InputError("--plot needs matplotlib (pip install matplotlib)", path) from None
-    w = heatmaps.weights.reshape(len(heatmaps), grid.n_elevations, grid.n_azimuths).max(axis=1)
-    az = grid.azimuth_values
-    t0 = heatmaps.time_s[0] if len(heatmaps) else 0.0
-    t1 = heatmaps.time_s[-1] if len(heatmaps) else 1.0
-    step = az[1] - az[0] if az.size > 1 else 1.0
-    fig, ax = plt.subplots(figsize=(9, 3.6), dpi=110)
-    im = ax.imshow(
-        w.T,
-        aspect="auto",
-        origin="lower",
-        cmap="viridis",
-        extent=(t0, t1, az[0] - step / 2, az[-1] + step / 2),
-        interpolation="nearest",
-    )
-    if truth is not None and len(truth):
-        on = truth.active
-        ax.plot(
-            truth.time_s[on],
-            truth.azimuth_deg[on],
-            ".",
-            ms=1.0,
-            color="red",
-            label="ground truth (active)",
-        )
-    if truth is not None and len(truth):
-        ax.legend(loc="upper right", fontsize=7, markerscale=8)
-    ax.set_xlim(t0, t1)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("azimuth (deg)")
-    ax.set_title(title)
-    fig.colorbar(im, ax=ax, pad=0.01)
-    fig.tight_layout()
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png")
-    plt.close(fig)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -42,7 +42,7 @@ COMMAND_HELP = {
     "stream": "localize and track speakers on a live WAV stream (stdin or a file)",
     "track-av": "audio-visual tracking and diarization of a scene directory",
     "robot-sim": "simulate a moving robot head tracking and servoing people (thesis §3.2)",
-    "track-phd": "audio-visual SMC-PHD tracking of AV16.3 (particle flow, seed 004)",
+    "track-phd": "audio-visual SMC-PHD tracking of AV16.3 (particle flow, Liu et al.)",
     "eval": "score a result against ground truth",
     "bench": "run a suite of scenes x tasks x parameters (locally or on a Dask cluster)",
 }

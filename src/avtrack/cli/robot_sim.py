@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import add_command, add_common
+from avtrack.config import load_config
 from avtrack.errors import InputError
-from avtrack.robot.simulate import (
+from avtrack.simulate.robot import (
     ROBOT_SCENARIOS,
     RobotSimConfig,
     simulate_robot,
@@ -44,16 +45,15 @@ ones under "detector:", "stereo:" and "tracker:" (RobotTrackerConfig), e.g.:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "robot-sim",
         help="simulate a moving robot head tracking and servoing people (thesis §3.2)",
-        description=(
-            "Closed-loop NAO-MPVS-like sequence: simulated people seen by a stereo pair on a\n"
-            "pan/tilt head, 3-D multi-person tracking with ego-motion compensation, and visual\n"
-            "servoing whose commands move the head (thesis §3.2)."
-        ),
+        description="""\
+Closed-loop NAO-MPVS-like sequence: simulated people seen by a stereo pair on a
+pan/tilt head, 3-D multi-person tracking with ego-motion compensation, and visual
+servoing whose commands move the head (thesis §3.2).""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("name", metavar="NAME", help=f"sequence ({', '.join(ROBOT_SCENARIOS)})")
     p.add_argument(
@@ -83,8 +83,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="FILE.yaml",
         help="simulation, detector, stereo and tracker parameters (RobotSimConfig fields)",
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -8,15 +8,15 @@ import time
 from pathlib import Path
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
-from avtrack.simulate.library import SCENARIOS, named_scenario
-from avtrack.simulate.scenario import (
+from avtrack.io.scenario import (
     SCENARIO_REFERENCE,
     dump_scenario,
     load_scenario,
     validate_scenario,
 )
+from avtrack.simulate.library import SCENARIOS, named_scenario
 
 EXAMPLES = f"""\
 named scenarios: {", ".join(SCENARIOS)}
@@ -46,16 +46,15 @@ appearance.npy and gt/ (gt.txt, doa.csv, speech.rttm, positions.csv); see the RE
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "simulate",
         help="simulate an audio-visual scene (room acoustics, camera, detections, ground truth)",
-        description=(
-            "Simulate people who move and talk in a reverberant room, recorded by a microphone\n"
-            "array and a camera: microphone signals, head detections with appearance, and exact\n"
-            "ground truth (boxes, directions of arrival, who speaks when)."
-        ),
+        description="""\
+Simulate people who move and talk in a reverberant room, recorded by a microphone
+array and a camera: microphone signals, head detections with appearance, and exact
+ground truth (boxes, directions of arrival, who speaks when).""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument(
         "scenario",
@@ -85,8 +84,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--help-scenario", action="store_true", help="print every scenario field and exit"
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
     add_config_option(p, exclude=("print_only", "help_scenario"))
 
 

@@ -9,13 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from avtrack.cli.base import (
-    HelpFormatter,
-    add_array_option,
-    add_common,
-    build_config,
-    read_config_mapping,
-)
+from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.config import build_config, read_config_mapping
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOA_HEADER, format_doa_row
@@ -48,20 +43,19 @@ video detections).
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
+    from avtrack.doa.base import TRACKERS
     from avtrack.localize import LOCALIZERS
-    from avtrack.tracking.doa_base import registered_trackers
 
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "stream",
         help="localize and track speakers on a live WAV stream (stdin or a file)",
-        description=(
-            "Online multi-speaker localization and tracking of a multichannel WAV stream read\n"
-            "as it arrives (e.g. from a microphone array on stdin): DP-RTF + exponentiated-\n"
-            "gradient localization every 8 ms, a VEM DOA tracker every 32 ms, one output row\n"
-            "per track per frame with bounded latency and memory."
-        ),
+        description="""\
+Online multi-speaker localization and tracking of a multichannel WAV stream read
+as it arrives (e.g. from a microphone array on stdin): DP-RTF + exponentiated-
+gradient localization every 8 ms, a VEM DOA tracker every 32 ms, one output row
+per track per frame with bounded latency and memory.""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("audio", metavar="AUDIO.wav|-", help="WAV file, or - for standard input")
     add_array_option(p)
@@ -70,7 +64,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "--tracker",
-        choices=sorted(registered_trackers()),
+        choices=sorted(TRACKERS),
         default="vonmises",
         help="default: vonmises",
     )
@@ -91,18 +85,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--config", type=Path, metavar="FILE.yaml", help="localizer: and tracker: parameters"
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def load_stream_config(path: Path | None, method: str, tracker: str) -> tuple[object, object]:
     """The localizer's and the tracker's Config from the ``--config`` file (defaults
     without one); errors name the field, e.g. ``FILE: tracker.kappa_birth: ...``."""
+    from avtrack.doa.base import TRACKERS
     from avtrack.localize import LOCALIZERS
-    from avtrack.tracking.doa_base import registered_trackers
 
     loc_cls = LOCALIZERS[method].Config
-    trk_cls = registered_trackers()[tracker].Config
+    trk_cls = TRACKERS[tracker].Config
     if path is None:
         return loc_cls(), trk_cls()
     values = read_config_mapping(path, "sections 'localizer' and 'tracker'")

@@ -19,18 +19,18 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_array_option, add_common, load_config
-from avtrack.errors import InputError
-from avtrack.io.base import atomic_write
-from avtrack.io.doa import DOATable, read_doa_csv, write_doa_csv
-from avtrack.tracking.doa_base import (
+from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.config import load_config
+from avtrack.doa.base import (
     DEFAULT_OBSERVATIONS,
     OBSERVATION_MODES,
+    TRACKERS,
     DOASequence,
     heatmap_sequence,
     make_tracker,
-    registered_trackers,
 )
+from avtrack.errors import InputError
+from avtrack.io.doa import read_doa_csv, write_doa_csv
 
 HOP_S = 0.008
 
@@ -54,17 +54,16 @@ The --config YAML holds the tracker's parameters (GaussConfig / VonMisesConfig f
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "track-audio",
         help="acoustic multi-speaker tracking (localization + VEM tracker)",
-        description=(
-            "Track several speakers from a microphone-array recording (thesis ch. 5): frame-wise\n"
-            "localization every 8 ms, then a variational-EM tracker every 32 ms that keeps the\n"
-            "identities through speech pauses and says who is speaking. Azimuths are in the\n"
-            "array frame, counter-clockwise from x, in (-180, 180]."
-        ),
+        description="""\
+Track several speakers from a microphone-array recording (thesis ch. 5): frame-wise
+localization every 8 ms, then a variational-EM tracker every 32 ms that keeps the
+identities through speech pauses and says who is speaking. Azimuths are in the
+array frame, counter-clockwise from x, in (-180, 180].""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument(
         "audio",
@@ -75,7 +74,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     )
     add_array_option(p, required=False, note=" (required with AUDIO.wav)")
     p.add_argument(
-        "--tracker", choices=sorted(registered_trackers()), default="gauss", help="default: gauss"
+        "--tracker", choices=sorted(TRACKERS), default="gauss", help="default: gauss"
     )
     p.add_argument(
         "-o",
@@ -141,13 +140,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def load_tracker_config(name: str, path: Path | None):
     """The tracker's ``Config`` from a YAML file (defaults without one)."""
-    return load_config(path, registered_trackers()[name].Config)
+    return load_config(path, TRACKERS[name].Config)
 
 
 def observations_from_audio(
@@ -156,7 +154,8 @@ def observations_from_audio(
     """Localize ``args.audio``; returns the tracker's observations, the signal duration and the
     localization time (seconds)."""
     from avtrack.audio.arrays import load_array
-    from avtrack.cli.localize import load_method_config, localize_signal, read_array_audio
+    from avtrack.audio.recording import read_array_audio
+    from avtrack.cli.localize import load_method_config, localize_signal
     from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer
 
     if args.array is None:
@@ -179,62 +178,6 @@ def observations_from_audio(
     return seq, x.shape[1] / localizer.fs, elapsed
 
 
-def plot_tracks(
-    path: Path, tracks: DOATable, truth: DOATable | None = None, title: str = ""
-) -> None:
-    """Tracks over time coloured by identity (thesis Fig. 5.2 f / 5.5), with the ground truth
-    above them when given; written atomically as PNG."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise InputError("--plot needs matplotlib (pip install matplotlib)", path) from None
-    rows = 2 if truth is not None else 1
-    fig, axes = plt.subplots(
-        rows, 1, figsize=(9, 2.6 * rows + 0.6), dpi=110, sharex=True, squeeze=False
-    )
-    cmap = plt.get_cmap("tab10")
-    panels = [] if truth is None else [(axes[0, 0], truth, "ground truth (speaking)")]
-    panels.append((axes[-1, 0], tracks, "tracks (speaking; faint: silent)"))
-    for ax, table, label in panels:
-        for k, tid in enumerate(np.unique(table.ids)):
-            sel = table.ids == tid
-            on = sel & table.active
-            ax.plot(
-                table.time_s[on],
-                table.azimuth_deg[on],
-                ".",
-                ms=2.0,
-                color=cmap(k % 10),
-                label=f"{tid}",
-            )
-            if table is tracks:
-                off = sel & ~table.active
-                ax.plot(
-                    table.time_s[off],
-                    table.azimuth_deg[off],
-                    ".",
-                    ms=0.8,
-                    alpha=0.3,
-                    color=cmap(k % 10),
-                )
-        ax.set_ylim(-180, 180)
-        ax.set_yticks([-180, -90, 0, 90, 180])
-        ax.set_ylabel("azimuth (deg)")
-        ax.set_title(label, fontsize=9)
-        if 0 < len(np.unique(table.ids)) <= 12:
-            ax.legend(
-                loc="upper right", fontsize=6, markerscale=3, ncol=6, title="id", title_fontsize=6
-            )
-    axes[-1, 0].set_xlabel("time (s)")
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png")
-    plt.close(fig)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -269,7 +212,9 @@ def run(args: argparse.Namespace) -> int:
     t_track = time.perf_counter() - t0
     write_doa_csv(args.output, tracks)
     if args.plot is not None:
-        plot_tracks(args.plot, tracks, truth, f"{args.tracker}: {source}")
+        from avtrack.viz.plots import plot_doa_tracks
+
+        plot_doa_tracks(args.plot, tracks, truth, f"{args.tracker}: {source}")
     if not args.quiet:
         n_ids = len(np.unique(tracks.ids))
         rf = (t_loc + t_track) / max(duration, 1e-9)

@@ -1,8 +1,8 @@
 """``avtrack track-av``: audio-visual tracking and diarization of a scene directory.
 
 Two models: ``direction`` (default), persons in the array's direction space
-(:mod:`avtrack.tracking.persons`), who stay tracked out of the camera's view and are born from
-audio too; ``image``, the thesis's image-plane model (VAVIT, :mod:`avtrack.tracking.vavit`)
+(:mod:`avtrack.av.persons`), who stay tracked out of the camera's view and are born from
+audio too; ``image``, the thesis's image-plane model (VAVIT, :mod:`avtrack.av.vavit`)
 with its learned GLLiM audio-to-image mapping.
 """
 
@@ -16,8 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_array_option, add_common, load_config
+from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.config import load_config
 from avtrack.errors import InputError
+from avtrack.io.camera import read_camera_file
 from avtrack.io.mot import write_mot
 from avtrack.io.rttm import write_rttm
 
@@ -86,20 +88,18 @@ and VAVITConfig fields with --model image, e.g.:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "track-av",
         help="audio-visual tracking and diarization of a scene directory",
-        description=(
-            "Variational audio-visual tracking and diarization of several speakers. By default "
-            "persons\nlive in directions from the microphone array (the camera's view a window "
-            "inside them):\nhead detections enter through the camera geometry, DP-RTF + EG "
-            "audio peaks directly, so a\nperson out of view stays tracked while heard and a "
-            "talker never seen gets a track.\n--model image: the thesis's image-plane model "
-            "(ch. 4) with a learned GLLiM mapping.\nSCENE_DIR is a scene directory as written "
-            "by 'avtrack simulate'."
-        ),
+        description="""\
+Variational audio-visual tracking and diarization of several speakers. By default persons
+live in directions from the microphone array (the camera's view a window inside them):
+head detections enter through the camera geometry, DP-RTF + EG audio peaks directly, so a
+person out of view stays tracked while heard and a talker never seen gets a track.
+--model image: the thesis's image-plane model (ch. 4) with a learned GLLiM mapping.
+SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("scene", type=Path, metavar="SCENE_DIR", nargs="?",
                    help="scene directory (or give a recording with --audio / --camera)")
@@ -188,38 +188,27 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         help="--model image: write OUT_DIR/covariances.png, the visual, audio and dynamics "
         "covariances of the tracked persons in four frames (Ban et al., Fig. 1)",
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def load_vavit_config(path: Path | None, threshold: float | None):
     """VAVITConfig from ``--config`` (``visual:`` overrides the default visual fields), with
     ``--threshold`` on top."""
-    from avtrack.tracking.vavit import VAVITConfig
+    from avtrack.av.vavit import VAVITConfig
 
     return load_config(path, VAVITConfig, overrides={"diarization_threshold": threshold})
 
 
-def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = False):
-    """The scene geometry's audio-to-image mapping: calibrated with a simulated loudspeaker
-    and trained the first time, then read from the cache
-    (:func:`avtrack.av.calibration.cached_scene_mapping`)."""
-    from avtrack.av.calibration import cached_scene_mapping, mapping_cache_dir
+def mapping_with_progress(scene, n_positions: int, verbose: bool, quiet: bool = False):
+    """:func:`avtrack.simulate.calibration.train_scene_mapping` with a progress note."""
+    from avtrack.simulate.calibration import mapping_cache_dir, train_scene_mapping
 
-    if scene.scenario is None:
-        raise InputError(
-            "no scene.yaml: cannot simulate a calibration of this scene's room; pass --mapping",
-            scene.path,
-        )
     t0 = time.perf_counter()
     with progress.activity(
         f"audio-to-image mapping (calibration with {n_positions} loudspeaker positions and "
         f"training, unless cached)", quiet
     ):
-        mapping, cached = cached_scene_mapping(
-            scene.scenario, scene.path / "scene.yaml", n_positions,
-            meta={"scene": scene.path.name},
-        )
+        mapping, cached = train_scene_mapping(scene, n_positions)
     if verbose:
         how = (f"read from the cache ({mapping_cache_dir()})" if cached
                else "trained on a simulated calibration and cached")
@@ -231,7 +220,7 @@ def train_scene_mapping(scene, n_positions: int, verbose: bool, quiet: bool = Fa
 def load_person_config(path: Path | None, threshold: float | None):
     """PersonConfig from ``--config`` (the visual tracker's fields under ``visual:``), with
     ``--threshold`` on top."""
-    from avtrack.tracking.persons import PersonConfig
+    from avtrack.av.persons import PersonConfig
 
     return load_config(path, PersonConfig, overrides={"speaking_threshold": threshold})
 
@@ -275,7 +264,7 @@ def run_av163(args: argparse.Namespace) -> int:
     seq = load_av163(args.scene, args.seq, args.cam)
     detector = None
     if args.detector is not None:
-        from avtrack.detect import load_detector
+        from avtrack.visual.detect import load_detector
 
         detector = load_detector(args.detector)
     out = args.output
@@ -304,8 +293,8 @@ def run_av163(args: argparse.Namespace) -> int:
 
 def run_direction(args: argparse.Namespace) -> int:
     """--model direction: persons in the array's direction space."""
-    from avtrack.tracking.persons_scene import track_scene_persons
-    from avtrack.tracking.vavit import load_scene
+    from avtrack.av.persons_scene import track_scene_persons
+    from avtrack.io.scene import load_scene
 
     if args.plot:
         raise InputError("--plot draws the image-plane model's covariances; use --model image")
@@ -333,30 +322,10 @@ def run_direction(args: argparse.Namespace) -> int:
     _write_text(out / "persons.csv", res.persons.to_csv())
     write_rttm(out / "speech.rttm", res.speech)
     if not args.quiet:
-        n_persons = len(np.unique(res.persons.ids))
-        speakers = len({s.speaker for s in res.speech})
-        print(
-            f"tracked {res.n_frames} frames ({res.timing['duration']:.1f} s): {n_persons} "
-            f"persons, {len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} "
-            f"speakers -> {out} ({elapsed:.1f} s, real-time factor "
-            f"{elapsed / max(res.timing['duration'], 1e-9):.2f})"
-        )
+        _print_summary(res, len(np.unique(res.persons.ids)), out, elapsed)
     return 0
 
 
-def load_camera_file(path: Path):
-    """CAMERA.yaml (or .json): a PinholeCamera in the array's frame."""
-    import yaml
-
-    from avtrack.simulate.camera import PinholeCamera
-
-    if not path.is_file():
-        raise InputError("camera file not found", path)
-    try:
-        raw = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
-    return PinholeCamera.from_json(raw, path)
 
 
 def _doa_peaks(path: Path, fps: float, n_frames: int) -> list[np.ndarray]:
@@ -376,10 +345,10 @@ def _doa_peaks(path: Path, fps: float, n_frames: int) -> list[np.ndarray]:
 def run_recording(args: argparse.Namespace) -> int:
     """A recording of the user's own: video (or detections), audio (or DOA), camera file."""
     from avtrack.audio.arrays import load_array
+    from avtrack.audio.recording import read_array_audio
     from avtrack.av.geometry import CameraGeometry
-    from avtrack.cli.localize import read_array_audio
+    from avtrack.av.persons_scene import audio_peaks, localizer_grid, track_persons
     from avtrack.io.mot import read_mot
-    from avtrack.tracking.persons_scene import audio_peaks, localizer_grid, track_persons
 
     if args.model != "direction":
         raise InputError("a recording of your own is tracked with --model direction (the image "
@@ -390,7 +359,7 @@ def run_recording(args: argparse.Namespace) -> int:
                          "or --detections, and --audio --array or --doa")
     if args.plot or args.mapping is not None:
         raise InputError("--plot and --mapping belong to --model image on a scene directory")
-    camera = load_camera_file(args.camera)
+    camera = read_camera_file(args.camera)
     geometry = CameraGeometry(camera, np.zeros(3), 0.0)
     video = None
     if args.video is not None:
@@ -452,7 +421,7 @@ def run_recording(args: argparse.Namespace) -> int:
     if video is not None:
         from avtrack.cli.track_mot import check_against_video
         from avtrack.io.video import iter_frames
-        from avtrack.models.histograms import detection_histograms
+        from avtrack.visual.histograms import detection_histograms
 
         check_against_video(dets, video, args.detections or args.video)
         if appearance is None:
@@ -501,6 +470,17 @@ def run_recording(args: argparse.Namespace) -> int:
     return 0
 
 
+def _print_summary(res, n_persons: int, out: Path, elapsed: float) -> None:
+    """One line: frames, persons, boxes, speaker turns, output, time and real-time factor."""
+    duration = res.timing["duration"]
+    speakers = len({s.speaker for s in res.speech})
+    print(
+        f"tracked {res.n_frames} frames ({duration:.1f} s): {n_persons} persons, "
+        f"{len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} speakers "
+        f"-> {out} ({elapsed:.1f} s, real-time factor {elapsed / max(duration, 1e-9):.2f})"
+    )
+
+
 def _write_text(path: Path, text: str) -> None:
     from avtrack.io.base import atomic_write
 
@@ -510,7 +490,7 @@ def _write_text(path: Path, text: str) -> None:
 
 def image_persons(res, scene):
     """``persons.csv`` rows of an image-plane result: each reported box's direction."""
-    from avtrack.tracking.persons_scene import PersonsTable, scene_geometry
+    from avtrack.av.persons_scene import PersonsTable, scene_geometry
 
     tr = res.tracks
     if scene.scenario is None or len(tr) == 0:
@@ -527,7 +507,8 @@ def image_persons(res, scene):
 def run_image(args: argparse.Namespace) -> int:
     """--model image (VAVIT) and --no-audio (OVBT)."""
     from avtrack.av.gllim import load_mapping, save_mapping
-    from avtrack.tracking.vavit import load_scene, track_scene
+    from avtrack.av.vavit import track_scene
+    from avtrack.io.scene import load_scene
 
     config = load_vavit_config(args.config, args.threshold)
     if args.calibration_positions < 4:
@@ -541,7 +522,7 @@ def run_image(args: argparse.Namespace) -> int:
         if args.mapping is not None:
             mapping = load_mapping(args.mapping)
         else:
-            mapping = train_scene_mapping(
+            mapping = mapping_with_progress(
                 scene, args.calibration_positions, not args.quiet, args.quiet
             )
             out.mkdir(parents=True, exist_ok=True)
@@ -569,114 +550,15 @@ def run_image(args: argparse.Namespace) -> int:
     if not args.no_audio:
         write_rttm(out / "speech.rttm", res.speech)
     if args.plot:
+        from avtrack.viz.plots import plot_covariances
+
         plot_covariances(res, out / "covariances.png", args.no_audio)
     if not args.quiet:
-        n_ids = len(np.unique(res.tracks.ids))
-        speakers = len({s.speaker for s in res.speech})
-        print(
-            f"tracked {res.n_frames} frames ({res.timing['duration']:.1f} s): {n_ids} persons, "
-            f"{len(res.tracks)} boxes, {len(res.speech)} speaker turns of {speakers} speakers "
-            f"-> {out} ({elapsed:.1f} s, real-time factor "
-            f"{elapsed / max(res.timing['duration'], 1e-9):.2f})"
-        )
+        _print_summary(res, len(np.unique(res.tracks.ids)), out, elapsed)
     return 0
 
 
-def _ellipse(ax, centre, cov, color, n_std: float = 2.0) -> None:
-    """Draw the ``n_std`` ellipse of ``cov (2, 2)``."""
-    from matplotlib.patches import Ellipse
-
-    vals, vecs = np.linalg.eigh(cov)
-    if not np.all(np.isfinite(vals)):
-        return
-    angle = float(np.degrees(np.arctan2(vecs[1, 1], vecs[0, 1])))
-    w, h = 2 * n_std * np.sqrt(np.maximum(vals, 0.0))
-    ax.add_patch(Ellipse(centre, h, w, angle=angle, fill=False, color=color, lw=1.2))
 
 
-def _covariance(prec: np.ndarray) -> tuple[np.ndarray, bool]:
-    """Covariance of a 2x2 precision; for a precision on x only (audio mapped to x), a very
-    tall ellipse stands for "no vertical information"."""
-    if prec[1, 1] <= 1e-12 * max(prec[0, 0], 1e-300):
-        if prec[0, 0] <= 0:
-            return np.full((2, 2), np.nan), False
-        return np.diag([1.0 / prec[0, 0], 1e12]), True
-    try:
-        return np.linalg.inv(prec), True
-    except np.linalg.LinAlgError:
-        return np.full((2, 2), np.nan), False
 
 
-def plot_covariances(res, path: Path, no_audio: bool = False) -> None:
-    """Seed 003 Fig. 1: four frames; rows: tracked head boxes (green id: speaking, red:
-    silent), and the visual, audio and dynamics covariances (inverses of the precision terms
-    #1, #2, #3 of eq. 4.26) of each tracked person."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from avtrack.io.base import atomic_write
-
-    tracks = res.tracks
-    frames = np.unique(tracks.frames)
-    w, h = res.image_size
-    if frames.size:  # four frames spread over the sequence, after the first births
-        picks = frames[np.linspace(frames.size // 10, frames.size - 1, 4).round().astype(int)]
-    else:
-        picks = np.array([1, 1, 1, 1])
-    rows = ["tracks", "visual (#1)", "audio (#2)", "dynamics (#3)"]
-    fig, axes = plt.subplots(4, 4, figsize=(13, 10), squeeze=False)
-    palette = (
-        "tab:blue",
-        "tab:orange",
-        "tab:purple",
-        "tab:brown",
-        "tab:pink",
-        "tab:olive",
-        "tab:cyan",
-        "tab:gray",
-    )  # no green / red: those mark speaking / silent ids
-    for c, f in enumerate(picks):
-        sel = np.flatnonzero(tracks.frames == f)
-        for r, name in enumerate(rows):
-            ax = axes[r, c]
-            ax.set_xlim(0, w)
-            ax.set_ylim(h, 0)
-            ax.set_aspect("equal")
-            ax.set_xticks([])
-            ax.set_yticks([])
-            lo, hi = res.fov
-            if hi - lo < w:
-                ax.axvspan(0, lo, color="0.85")
-                ax.axvspan(hi, w, color="0.85")
-            if c == 0:
-                ax.set_ylabel(name)
-            if r == 0:
-                ax.set_title(f"frame {int(f)}")
-            for i in sel:
-                tid = int(tracks.ids[i])
-                col = palette[tid % len(palette)]
-                box = tracks.boxes[i]
-                centre = (box[0] + box[2] / 2, box[1] + box[3] / 2)
-                if r == 0:
-                    ax.add_patch(plt.Rectangle(box[:2], box[2], box[3], fill=False, color=col))
-                    speaking = bool(res.speaking[i])
-                    ax.text(
-                        box[0],
-                        box[1] - 8,
-                        str(tid),
-                        fontsize=10,
-                        weight="bold",
-                        color="green" if speaking else "red",
-                    )
-                    continue
-                if res.precisions is None or (no_audio and r == 2):
-                    continue
-                cov, ok = _covariance(res.precisions[i, r - 1])
-                if ok:
-                    _ellipse(ax, centre, cov, col)
-    fig.tight_layout()
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format="png", dpi=80)
-    plt.close(fig)

@@ -11,11 +11,12 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import add_command, add_common
+from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.datasets import find_seqinfo, read_seqinfo
 from avtrack.io.mot import read_mot, write_mot
-from avtrack.tracking.ovbt import OVBTConfig, image_size_from_detections, track_mot
+from avtrack.visual.ovbt import OVBTConfig, image_size_from_detections, track_mot
 
 #: OVBTConfig fields that ``--video`` changes (before ``--config``): colour histograms are a
 #: weak cue, so they weigh little in the association (λ of eq. 3.5) and mostly give back the
@@ -53,13 +54,15 @@ The --config YAML holds OVBTConfig fields, e.g.:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
-        "track-mot", help="track MOTChallenge detections (visual VEM tracker, OVBT)",
-        description=("Online variational-Bayesian multi-person tracking (thesis §3.1) of "
-                     "MOTChallenge detections\n(frame,id,left,top,width,height,conf,...); "
-                     "writes MOTChallenge results\n(frame,id,left,top,width,height,conf,-1,-1,-1)"
-                     ", conf being the track's visibility probability."),
-        epilog=EXAMPLES, formatter_class=HelpFormatter)
+    p = add_command(
+        subparsers,
+        "track-mot",
+        help="track MOTChallenge detections (visual VEM tracker, OVBT)",
+        description="""\
+Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge detections
+(frame,id,left,top,width,height,conf,...); writes MOTChallenge results
+(frame,id,left,top,width,height,conf,-1,-1,-1), conf being the track's visibility probability.""",
+        epilog=EXAMPLES)
     p.add_argument("detections", type=Path, metavar="DET.txt", nargs="?",
                    help="MOTChallenge detections (omit to detect in --video's frames)")
     p.add_argument("-o", "--output", type=Path, required=True, metavar="RES.txt",
@@ -86,8 +89,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                    help="tracker parameters (OVBTConfig fields)")
     p.add_argument("--min-score", type=float, metavar="S",
                    help="drop detections with a lower confidence (overrides --config)")
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def parse_image_size(text: str) -> tuple[int, int]:
@@ -114,8 +116,8 @@ def load_appearance(path: Path, n_rows: int) -> np.ndarray:
 
 def detect_in_video(video_path: Path, spec: str, quiet: bool):
     """Detections of a detector (``--detector``) on every frame of a video."""
-    from avtrack.detect import detect_video, load_detector
     from avtrack.io.video import iter_frames, probe_video
+    from avtrack.visual.detect import detect_video, load_detector
 
     info = probe_video(video_path)
     detector = load_detector(spec)
@@ -195,7 +197,7 @@ def run(args: argparse.Namespace) -> int:
     n = max(dets.n_frames, n_frames or 0)
     if video is not None:
         from avtrack.io.video import iter_frames
-        from avtrack.models.histograms import detection_histograms
+        from avtrack.visual.histograms import detection_histograms
 
         with progress.activity(f"colour histograms of {len(dets)} boxes in {n} frames",
                                args.quiet):

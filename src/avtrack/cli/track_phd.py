@@ -1,4 +1,5 @@
-"""``avtrack track-phd``: audio-visual SMC-PHD tracking of an AV16.3 sequence (seed 004)."""
+"""``avtrack track-phd``: audio-visual SMC-PHD tracking of an AV16.3 sequence
+(Liu et al., labelled non-zero particle flow SMC-PHD filtering)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import HelpFormatter, add_common, load_config
+from avtrack.cli.base import add_command, add_common
+from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
 from avtrack.io.base import atomic_write
@@ -42,7 +44,7 @@ examples:
   avtrack track-phd av16.3/ --seq 30 --cam 1 \
       --video av16.3/seq30-2p-1101_cam1_divx_audio.avi -o lpf30.csv
 
-The folder holds files named as in the AV16.3 release used by seed 004:
+The folder holds files named as in the AV16.3 release used by Liu et al.:
   data_av_seqNN_camC.mat, DOA_measurements_seqNN_camC.mat, hist_temp_16bins_seqNN_camC.mat
   and, where available, face_seqNN_camC.mat (face detections).
 Output rows: frame,id,x,y (image pixels of the mouth; id -1 when the filter gives none).
@@ -54,9 +56,10 @@ The --config YAML holds PHDConfig fields, e.g.:
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
-    p = subparsers.add_parser(
+    p = add_command(
+        subparsers,
         "track-phd",
-        help="audio-visual SMC-PHD tracking of AV16.3 (particle flow, seed 004)",
+        help="audio-visual SMC-PHD tracking of AV16.3 (particle flow, Liu et al.)",
         description=(
             "Track the speakers of an AV16.3 sequence in the image with the "
             "AV-LPF-SMC-PHD (labelled\nparticle flow) or AV-NPF-SMC-PHD (particle "
@@ -66,7 +69,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
             "resamplings and time."
         ),
         epilog=EXAMPLES,
-        formatter_class=HelpFormatter,
     )
     p.add_argument("folder", type=Path, metavar="AV163_DIR", help="folder of AV16.3 MAT files")
     p.add_argument("--seq", type=int, required=True, help="sequence number (e.g. 24, 45)")
@@ -108,8 +110,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         metavar="FIG.png",
         help="also draw the tracks, ground truth and OSPA over time",
     )
-    add_common(p)
-    p.set_defaults(func=run)
+    add_common(p, run)
 
 
 def write_tracks(path: Path, rows: np.ndarray) -> None:
@@ -118,52 +119,6 @@ def write_tracks(path: Path, rows: np.ndarray) -> None:
         fh.write("frame,id,x,y\n")
         for f, i, x, y in rows:
             fh.write(f"{int(f)},{int(i)},{x:.2f},{y:.2f}\n")
-
-
-def plot_tracks(
-    path: Path,
-    result: PHDResult,
-    truth: list[np.ndarray],
-    frames: np.ndarray,
-    ospa: np.ndarray,
-    title: str,
-) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
-    gt = np.vstack([t for t in truth if len(t)] or [np.zeros((0, 2))])
-    ax.scatter(gt[:, 0], gt[:, 1], s=2, c="0.7", label="ground truth")
-    rows = result.rows(frames)
-    if len(rows):
-        ids = rows[:, 1]
-        sc = ax.scatter(
-            rows[:, 2],
-            rows[:, 3],
-            s=3,
-            c=np.where(ids >= 0, ids % 20, -1),
-            cmap="tab20",
-            label="estimates",
-        )
-        sc.set_clim(-1, 19)
-    ax.set_xlim(0, 360)
-    ax.set_ylim(288, 0)
-    ax.set_aspect("equal")
-    ax.set_xlabel("x (px)")
-    ax.set_ylabel("y (px)")
-    ax.legend(loc="lower right", fontsize=8)
-    ax.set_title(title)
-    ax2.plot(frames, ospa[:, 0], lw=0.8, label="OSPA")
-    ax2.plot(frames, ospa[:, 2], lw=0.6, label="cardinality part")
-    ax2.set_xlabel("frame")
-    ax2.set_ylabel(f"OSPA (px, p={OSPA_ORDER}, c={OSPA_CUTOFF:g})")
-    ax2.legend(fontsize=8)
-    fig.tight_layout()
-    with atomic_write(path, "wb") as fh:
-        fig.savefig(fh, format=path.suffix.lstrip(".") or "png", dpi=120)
-    plt.close(fig)
 
 
 def ospa_t_of(result: PHDResult, seq) -> float:
@@ -206,13 +161,17 @@ def run(args: argparse.Namespace) -> int:
     ospa = ospa_sequence(result.positions(), truth, OSPA_CUTOFF, OSPA_ORDER)
     ospat = ospa_t_of(result, seq)
     if args.plot:
-        plot_tracks(
+        from avtrack.viz.plots import plot_phd_tracks
+
+        plot_phd_tracks(
             args.plot,
             result,
             truth,
             seq.frames,
             ospa,
             f"{args.filter.upper()} seq {args.seq} cam {args.cam} ({used})",
+            OSPA_ORDER,
+            OSPA_CUTOFF,
         )
     if not args.quiet:
         print(

@@ -2,7 +2,7 @@
 
 The files are those distributed with Kilic et al., "Mean-shift and sparse sampling-based
 SMC-PHD filtering for audio informed visual speaker tracking", IEEE TMM 2016 (the data family
-of seed 004's tables), one folder of MATLAB v5 files per corpus, for sequence ``NN`` and camera
+of Liu et al.'s tables), one folder of MATLAB v5 files per corpus, for sequence ``NN`` and camera
 ``C``:
 
 - ``data_av_seqNN_camC.mat`` — struct ``Data`` with ``cam`` (the three calibrated cameras),
@@ -76,6 +76,16 @@ _PERSON = re.compile(r"person(\d+)$")
 
 # --------------------------------------------------------------------------- data types
 
+
+#: Centre of AV16.3 microphone array 1 in the ``MouthGT3D`` room frame (metres).
+AV163_ARRAY_CENTRE = (0.0, 0.4, 0.0)
+#: Height of the speakers' mouths above the array plane (metres).
+AV163_MOUTH_HEIGHT = 0.8
+#: Mouth position in a face box (x1, y1, x2, y2): horizontal centre, 0.8 box heights down.
+FACE_MOUTH_OFFSET = 0.8
+#: Mouth point in a colour-template window: horizontal centre, this fraction of the height
+#: down (the offset that fits ``posGT`` best on sequence 30, camera 1).
+TEMPLATE_MOUTH_OFFSET = 0.69
 
 @dataclass(frozen=True)
 class AV163Camera:

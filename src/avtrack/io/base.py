@@ -1,4 +1,5 @@
-"""Shared I/O helpers: atomic output files."""
+"""Shared I/O helpers: atomic output files, number parsing and YAML files with errors naming
+the file and row."""
 
 from __future__ import annotations
 
@@ -8,12 +9,13 @@ import os
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
+
+from avtrack.errors import InputError
 
 
 def parse_finite(text: str, name: str, path, row: int) -> float:
     """The finite number in a text field, or an InputError naming the file, row and field."""
-    from avtrack.errors import InputError
 
     try:
         v = float(text)
@@ -45,6 +47,12 @@ def check_frame_span(last: float, n_rows: int, path, what: str = "frame",
         raise InputError(
             f"{what} {last:{fmt}} lies far past what {n_rows} row(s) can describe (at most "
             f"{limit:{fmt}} here); is there a typo, or a timestamp in the {what} column?", path)
+
+
+def field_count_error(expected: str, got: int, path, row: int) -> InputError:
+    """The error of a row with the wrong number of fields: ``expected`` says how many and
+    which (``"7 comma-separated values (frame,time_s,...)"``)."""
+    return InputError(f"expected {expected}, got {got}", path, row)
 
 
 def temp_output(path: Path, suffix: str = ".tmp") -> tuple[int, str]:
@@ -91,3 +99,21 @@ def atomic_write(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
         with contextlib.suppress(FileNotFoundError):
             os.unlink(tmp)
         raise
+
+
+def read_yaml_file(path: str | Path, what: str) -> Any:
+    """The content of a YAML file (None when empty); :class:`InputError` naming the file, and
+    the row of a syntax error, when it is missing or not YAML. ``what`` names the file's kind
+    (``"scenario"``) in the not-found message."""
+    import yaml
+
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{what} file not found", path)
+    try:
+        return yaml.safe_load(path.read_bytes())
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        row = None if mark is None else mark.line + 1
+        problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
+        raise InputError(f"not valid YAML ({problem})", path, row) from None

@@ -14,11 +14,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write, check_frame_span, parse_finite
+from avtrack.io.base import atomic_write, check_frame_span, field_count_error, parse_finite
 
 DOA_HEADER = "frame,time_s,id,azimuth_deg,elevation_deg,weight,active"
 _COLUMNS = DOA_HEADER.split(",")
@@ -27,6 +28,10 @@ _TRUE = frozenset({"1", "true"})
 _FALSE = frozenset({"0", "false"})
 
 
+@overload
+def wrap_azimuth(deg: float) -> float: ...
+@overload
+def wrap_azimuth(deg: np.ndarray) -> np.ndarray: ...
 def wrap_azimuth(deg: float | np.ndarray) -> float | np.ndarray:
     """Angles in degrees wrapped to (−180, 180] (−180 maps to 180).
 
@@ -198,11 +203,8 @@ def read_doa_csv(path: str | Path) -> DOATable:
             continue
         parts = [p.strip() for p in line.split(",")]
         if len(parts) != len(_COLUMNS):
-            raise InputError(
-                f"expected {len(_COLUMNS)} comma-separated values ({DOA_HEADER}), "
-                f"got {len(parts)}",
-                path,
-                row,
+            raise field_count_error(
+                f"{len(_COLUMNS)} comma-separated values ({DOA_HEADER})", len(parts), path, row
             )
         frame = _parse_int(parts[0], "frame", path, row)
         time_s = parse_finite(parts[1], "time_s", path, row)

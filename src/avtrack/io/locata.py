@@ -54,6 +54,7 @@ import scipy.io
 import soundfile as sf
 
 from avtrack.errors import InputError
+from avtrack.io.doa import wrap_azimuth
 
 TIME_COLUMNS = ("year", "month", "day", "hour", "minute", "second")
 POSE_COLUMNS = (
@@ -513,12 +514,6 @@ def load_locata_recording(
     )
 
 
-def _wrap_deg(a: np.ndarray) -> np.ndarray:
-    """Angles in (-180, 180]."""
-    out = np.mod(a + 180.0, 360.0) - 180.0
-    return np.where(out == -180.0, 180.0, out)
-
-
 def locata_source_azimuths(
     rec: LOCATARecording, convention: Literal["avtrack", "locata"] = "avtrack"
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -560,7 +555,7 @@ def locata_source_azimuths(
         out[:, s] = np.degrees(np.arctan2(v[:, 1], v[:, 0]))
     if convention == "locata":
         out = out - 90.0
-    return times, _wrap_deg(out)
+    return times, wrap_azimuth(out)
 
 
 def load_locata_tracks(

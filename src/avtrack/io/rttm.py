@@ -16,13 +16,11 @@ import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+
+import numpy as np
 
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write, parse_finite
-
-if TYPE_CHECKING:
-    from avtrack.simulate.speech import SpeechSegment
+from avtrack.io.base import atomic_write, field_count_error, parse_finite
 
 # RTTM record types other than SPEAKER; they carry no speaker turns and are skipped.
 OTHER_TYPES = frozenset(
@@ -42,6 +40,49 @@ OTHER_TYPES = frozenset(
         "SPKR-INFO",
     }
 )
+
+
+@dataclass(frozen=True)
+class SpeechSegment:
+    """One speaker talking from ``start`` to ``end`` (seconds).
+
+    Attributes
+    ----------
+    speaker : int
+        1-based person id.
+    start, end : float
+        Seconds, ``0 <= start < end``.
+    utterance : str
+        What fills the segment: a file name, ``"synthetic"``, or ``"vad"`` for segments read
+        from a voice-activity track.
+    """
+
+    speaker: int
+    start: float
+    end: float
+    utterance: str = "synthetic"
+
+    def __post_init__(self) -> None:
+        s = self.speaker
+        if isinstance(s, bool) or not isinstance(s, int | np.integer) or s < 1:
+            raise ValueError(f"SpeechSegment: speaker must be an integer >= 1, got {s!r}")
+        object.__setattr__(self, "speaker", int(s))
+        start, end = float(self.start), float(self.end)
+        if not (math.isfinite(start) and start >= 0):
+            raise ValueError(f"SpeechSegment: start must be finite and >= 0, got {self.start!r}")
+        if not (math.isfinite(end) and end > start):
+            raise ValueError(
+                f"SpeechSegment: end must be finite and > start ({start:g}), got {self.end!r}"
+            )
+        object.__setattr__(self, "start", start)
+        object.__setattr__(self, "end", end)
+        if not isinstance(self.utterance, str):
+            raise ValueError(f"SpeechSegment: utterance must be a str, got {self.utterance!r}")
+
+    @property
+    def duration(self) -> float:
+        """``end - start`` in seconds."""
+        return self.end - self.start
 
 
 def _label(func: str, name: str, value: object) -> str:
@@ -115,7 +156,6 @@ def rttm_to_speech(
     ValueError
         A label missing from ``speaker_ids``.
     """
-    from avtrack.simulate.speech import SpeechSegment  # io does not import simulate eagerly
 
     segs = list(segments)
     labels = sorted({s.speaker for s in segs})
@@ -182,7 +222,6 @@ def write_rttm(
     ValueError
         A SpeechSegment without ``file_id``, or a segment shorter than 1 ms once rounded.
     """
-    from avtrack.simulate.speech import SpeechSegment  # io does not import simulate eagerly
 
     rows: list[str] = []
     for s in segments:
@@ -238,11 +277,9 @@ def read_rttm(path: str | Path) -> list[RTTMSegment]:
         if kind != "SPEAKER":
             raise InputError(f"unknown RTTM record type {kind!r} (expected SPEAKER)", path, row)
         if not 8 <= len(fields) <= 10:
-            raise InputError(
-                f"expected 10 space-separated fields (SPEAKER file channel start duration "
-                f"<NA> <NA> speaker <NA> <NA>), got {len(fields)}",
-                path,
-                row,
+            raise field_count_error(
+                "10 space-separated fields (SPEAKER file channel start duration <NA> <NA> "
+                "speaker <NA> <NA>)", len(fields), path, row
             )
         start = parse_finite(fields[3], "start (field 4)", path, row)
         dur = parse_finite(fields[4], "duration (field 5)", path, row)

@@ -69,7 +69,9 @@ class MOTSequence:
             raise ValueError(f"MOTSequence: length must be >= 0, got {self.length}")
         if (self.width is None) != (self.height is None):
             raise ValueError("MOTSequence: give both width and height, or neither")
-        if self.width is not None and (self.width <= 0 or self.height <= 0):
+        if self.width is not None and self.height is not None and (
+            self.width <= 0 or self.height <= 0
+        ):
             raise ValueError(
                 f"MOTSequence: image size must be > 0, got {self.width} x {self.height}"
             )
@@ -77,7 +79,7 @@ class MOTSequence:
     @property
     def image_size(self) -> tuple[int, int] | None:
         """``(width, height)``, or None when unknown."""
-        return None if self.width is None else (self.width, self.height)
+        return None if self.width is None or self.height is None else (self.width, self.height)
 
 
 def _image_dir_name(seqinfo: Path) -> str:
@@ -162,8 +164,8 @@ def load_mot_sequence(
     gt_path = folder / "gt" / "gt.txt"
     ground_truth = read_mot(gt_path, kind="gt") if gt_path.is_file() else None
 
-    image_dir = folder / (_image_dir_name(seqinfo_path) if info else "img1")
-    image_dir = image_dir if image_dir.is_dir() else None
+    images = folder / (_image_dir_name(seqinfo_path) if info else "img1")
+    image_dir = images if images.is_dir() else None
     last = max(detections.n_frames, ground_truth.n_frames if ground_truth is not None else 0)
     if "length" in info:
         length = int(info["length"])

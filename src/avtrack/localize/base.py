@@ -16,7 +16,6 @@ The base class validates every block, then hands the STFT frames to the subclass
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -25,22 +24,13 @@ import numpy as np
 from avtrack.audio.arrays import MicArray
 from avtrack.audio.stft import STFTConfig, StreamingSTFT
 from avtrack.localize.grid import DirectionGrid
+from avtrack.registry import Registry
 
-LOCALIZERS: dict[str, type[Localizer]] = {}
+LOCALIZERS: Registry[type[Localizer]] = Registry("localizer")
 """Registered localizer classes by name (``"dprtf-eg"``, ``"dprtf-rem"``, ...)."""
 
-
-def register_localizer(name: str) -> Callable[[type[Localizer]], type[Localizer]]:
-    """Class decorator registering a :class:`Localizer` subclass under ``name``."""
-
-    def deco(cls: type[Localizer]) -> type[Localizer]:
-        if name in LOCALIZERS and LOCALIZERS[name] is not cls:
-            raise ValueError(f"register_localizer: {name!r} is already registered")
-        cls.name = name
-        LOCALIZERS[name] = cls
-        return cls
-
-    return deco
+#: Class decorator registering a :class:`Localizer` subclass under a name.
+register_localizer = LOCALIZERS.register
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,7 +135,7 @@ class Localizer(ABC):
             )
         self.array = array
         self.grid = grid
-        self.config = config
+        self.config: Any = config
         self.stft_config = STFTConfig() if stft is None else stft
         self._stft = StreamingSTFT(array.n_mics, self.stft_config)
         self._setup()

@@ -87,7 +87,7 @@ class DirectionGrid:
         if not (step_deg > 0 and abs(n - round(n)) < 1e-9 and round(n) >= 1):
             raise ValueError(f"DirectionGrid.azimuths: step_deg must divide 360, got {step_deg!r}")
         az = -180.0 + step_deg * np.arange(1, round(n) + 1)
-        return cls(az, [float(elevation_deg)])
+        return cls(az, np.array([float(elevation_deg)]))
 
     @classmethod
     def sphere(cls, az_step_deg: float = 5.0, elevations_deg=(-30.0, 0.0, 30.0)) -> DirectionGrid:
@@ -181,6 +181,8 @@ def transfer_functions(
     if not np.all(np.isfinite(f)) or np.any(f < 0):
         raise ValueError("transfer_functions: freqs_hz must be finite and >= 0")
     if array.kind == "hrtf":
+        if array.hrir is None:
+            raise ValueError(f"transfer_functions: HRTF array {array.name!r} has no HRIRs")
         hrir = array.hrir.resampled(int(fs))
         idx = hrir.nearest_index(grid.azimuth_deg, grid.elevation_deg)  # (D,)
         irs = hrir.irs[idx]  # (D, M, L)

@@ -49,8 +49,8 @@ def local_maxima(weights: np.ndarray, grid: DirectionGrid) -> np.ndarray:
     if grid.n_elevations > 1:
         peak[:, 1:, :] &= g[:, 1:, :] > g[:, :-1, :]
         peak[:, :-1, :] &= g[:, :-1, :] >= g[:, 1:, :]
-    peak = peak.reshape(w.shape)
-    return peak[0] if squeeze else peak
+    out = peak.reshape(w.shape)
+    return out[0] if squeeze else out
 
 
 def find_peaks(

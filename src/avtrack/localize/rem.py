@@ -100,23 +100,24 @@ class PRPREMConfig(REMConfig):
     dprtf: DPRTFConfig = field(default_factory=_prp_features)
 
 
+class RecursiveEMLocalizer(CGMMLocalizer):
+    """A CGMM localizer whose weights follow the recursive-EM update (:func:`rem_update`)."""
+
+    default_threshold: ClassVar[float] = 0.05
+
+    def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
+        return rem_update(weights, ratios, self.config.rate)
+
+
 @register_localizer("dprtf-rem")
-class DPRTFREM(CGMMLocalizer):
+class DPRTFREM(RecursiveEMLocalizer):
     """DPRTF-REM: DP-RTF features, CGMM, recursive EM weights (thesis §5.5.1 baseline)."""
 
     Config: ClassVar[type] = REMConfig
-    default_threshold: ClassVar[float] = 0.05
-
-    def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
-        return rem_update(weights, ratios, self.config.rate)
 
 
 @register_localizer("prp-rem")
-class PRPREM(CGMMLocalizer):
+class PRPREM(RecursiveEMLocalizer):
     """PRP-REM: pair-wise relative phase features, CGMM, recursive EM (thesis §5.5.1)."""
 
     Config: ClassVar[type] = PRPREMConfig
-    default_threshold: ClassVar[float] = 0.05
-
-    def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
-        return rem_update(weights, ratios, self.config.rate)

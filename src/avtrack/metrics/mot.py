@@ -286,7 +286,7 @@ def evaluate_mot(
 
     gt_ids_t, n_gt_ids = _relabel(gt_ids_t)
     res_ids_t, n_res_ids = _relabel(res_ids_t)
-    data = {
+    data: dict[str, Any] = {
         "gt_ids": gt_ids_t,
         "tracker_ids": res_ids_t,
         "similarity_scores": sims_t,

@@ -1,7 +1,8 @@
 r"""Optimal sub-pattern assignment (OSPA) distance between two finite point sets.
 
 Schuhmacher, Vo and Vo, "A consistent metric for performance evaluation of multi-object
-filters", IEEE TSP 2008; the metric of seed 004 (§4, order 2). For ``X`` with ``n`` points and
+filters", IEEE TSP 2008; the metric of Liu et al.'s particle-flow SMC-PHD paper (§4,
+order 2). For ``X`` with ``n`` points and
 ``Y`` with ``m`` points, ``n <= m`` (swap them otherwise), cut-off ``c`` and order ``p``:
 
 .. math::
@@ -149,7 +150,7 @@ def ospa_sequence(
     -------
     ndarray (T, 3)
         Columns ``distance, localisation, cardinality`` per frame; the sequence score of
-        seed 004 Table 1 is the mean of the first column.
+        Liu et al.'s Table 1 is the mean of the first column.
     """
     if len(estimates) != len(truths):
         raise ValueError(

@@ -19,12 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from avtrack.io.doa import wrap_azimuth
 from avtrack.io.mot import MOTData
 from avtrack.metrics.mot import box_iou
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return 180.0 - np.mod(180.0 - np.asarray(a, dtype=float), 360.0)
 
 
 @dataclass(frozen=True)
@@ -140,7 +137,7 @@ def offscreen_direction_error(
         h = np.flatnonzero(hf == f)
         if h.size == 0:
             continue
-        d = np.abs(_wrap(ga[g][:, None] - ha[h][None, :]))
+        d = np.abs(wrap_azimuth(ga[g][:, None] - ha[h][None, :]))
         r, k = linear_sum_assignment(np.where(d <= gate_deg, d, 1e6))
         ok = d[r, k] <= gate_deg
         out = ~gv[g[r[ok]]]

@@ -1,8 +1,8 @@
-"""Audio-visual SMC-PHD filters with particle flow (seed 004, Liu et al., "Labelled non-zero
-particle flow for SMC-PHD filtering").
+"""Audio-visual SMC-PHD filters with particle flow (Liu et al., "Labelled non-zero particle
+flow for SMC-PHD filtering"; section, equation and table numbers below are that paper's).
 
 - :class:`~avtrack.phd.npf.NPFSMCPHD` (``"npf"``) — AV-NPF-SMC-PHD, the baseline: non-zero
-  diffusion particle flow (eqs. 6–10) with k-means clustering (ref. [9] of the seed).
+  diffusion particle flow (eqs. 6–10) with k-means clustering (ref. [9] of Liu et al.).
 - :class:`~avtrack.phd.lpf.LPFSMCPHD` (``"lpf"``) — AV-LPF-SMC-PHD: labelled particle flow
   (eqs. 13–25), no clustering.
 

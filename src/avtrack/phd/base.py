@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass, fields
+from collections.abc import Iterable
+from dataclasses import dataclass
 
 import numpy as np
 
 from avtrack.io.av163 import IMAGE_SIZE
 from avtrack.phd.likelihood import AVFrame
+from avtrack.registry import Registry
 
 FLOW_WEIGHTS = ("transition", "gaussian", "none")
 
@@ -140,18 +141,6 @@ class PHDConfig:
                 f"PHDConfig: image_size must be (width, height) > 0, got {self.image_size!r}"
             )
 
-    @classmethod
-    def from_dict(cls, values: dict) -> PHDConfig:
-        """A config from a mapping of field names; unknown names are an error."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise ValueError(f"PHDConfig: unknown fields {unknown} (known: {sorted(known)})")
-        vals = dict(values)
-        if "image_size" in vals:
-            vals["image_size"] = tuple(vals["image_size"])
-        return cls(**vals)
-
 
 @dataclass(frozen=True)
 class PHDEstimate:
@@ -266,17 +255,7 @@ class PHDFilter(ABC):
 
 
 #: Registered filters by name.
-PHD_FILTERS: dict[str, type[PHDFilter]] = {}
+PHD_FILTERS: Registry[type[PHDFilter]] = Registry("SMC-PHD filter")
 
-
-def register_phd_filter(name: str) -> Callable[[type[PHDFilter]], type[PHDFilter]]:
-    """Class decorator adding a filter to :data:`PHD_FILTERS` under ``name``."""
-
-    def deco(cls: type[PHDFilter]) -> type[PHDFilter]:
-        if name in PHD_FILTERS:
-            raise ValueError(f"register_phd_filter: {name!r} is already registered")
-        cls.name = name
-        PHD_FILTERS[name] = cls
-        return cls
-
-    return deco
+#: Class decorator adding a filter to :data:`PHD_FILTERS` under a name.
+register_phd_filter = PHD_FILTERS.register

@@ -1,4 +1,4 @@
-"""Non-zero-diffusion particle flow (seed 004 eqs. 6–9) and its Jacobian determinants.
+"""Non-zero-diffusion particle flow (Liu et al. eqs. 6–9) and its Jacobian determinants.
 
 The flow moves each particle ``m`` from the prior towards the posterior along the log-homotopy
 ``log psi(m, lambda) = log g(m) + lambda log h(m)``, ``lambda`` from 0 to 1, in steps
@@ -121,7 +121,7 @@ def affine_flow(
         Si, Ai, bi = S[group], A[group], b[group]
         f = np.einsum("nij,nj->ni", Si, bi - np.einsum("nij,nj->ni", Ai, m))  # eq. 8: S(b - Am)
         m += f * dl  # eq. 6-7, drift part
-        if diffusion > 0:
+        if diffusion > 0 and rng is not None:  # rng is given when diffusion > 0 (checked)
             SB = S @ B  # diffusion covariance dl * S A S = dl (SB)(SB)^T
             eps = rng.standard_normal((n, B.shape[2]))
             m += diffusion * np.sqrt(dl) * np.einsum("nik,nk->ni", SB[group], eps)  # eq. 7: v w
@@ -208,7 +208,7 @@ def mixture_flow(
         S = np.linalg.inv(prior_info + lam_mid * A_bar)  # eq. 9
         f = np.einsum("nij,nj->ni", S, grad)  # eq. 8
         m += f * dl  # eq. 6-7, drift part
-        if diffusion > 0:
+        if diffusion > 0 and rng is not None:  # rng is given when diffusion > 0 (checked)
             fac = (np.sqrt(resp)[:, :, None, None] * B[None]).transpose(0, 2, 1, 3)
             SB = S @ fac.reshape(n, dim, r * k)  # A_bar = fac fac^T
             eps = rng.standard_normal((n, r * k))

@@ -1,4 +1,4 @@
-"""Audio-visual measurements and likelihoods of the SMC-PHD filters (seed 004 eqs. 2–3, 10, 13,
+"""Audio-visual measurements and likelihoods of the SMC-PHD filters (Liu et al. eqs. 2–3, 10, 13,
 21).
 
 **Visual measurements** are image points ``(x, y)`` in pixels (the speaker's mouth, the point
@@ -42,16 +42,17 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from avtrack.io.av163 import IMAGE_SIZE, AV163Camera, AV163Sequence, load_av163_faces
+from avtrack.io.av163 import (
+    AV163_ARRAY_CENTRE,
+    AV163_MOUTH_HEIGHT,
+    FACE_MOUTH_OFFSET,
+    IMAGE_SIZE,
+    TEMPLATE_MOUTH_OFFSET,
+    AV163Camera,
+    AV163Sequence,
+    load_av163_faces,
+)
 from avtrack.io.mot import MOTData
-
-#: Centre of AV16.3 microphone array 1 in the ``MouthGT3D`` room frame (metres).
-AV163_ARRAY_CENTRE = (0.0, 0.4, 0.0)
-#: Height of the speakers' mouths above the array plane (metres).
-AV163_MOUTH_HEIGHT = 0.8
-#: Mouth position in a face box (x1, y1, x2, y2): horizontal centre, 0.8 box heights down.
-FACE_MOUTH_OFFSET = 0.8
-
 
 # --------------------------------------------------------------------------- one frame
 
@@ -471,9 +472,6 @@ def av163_frames(
 
 VISUAL_SOURCES = ("auto", "faces", "synthetic")
 
-#: Mouth point in a colour-template window: horizontal centre, this fraction of the height
-#: down (the offset that fits ``posGT`` best on sequence 30, camera 1).
-TEMPLATE_MOUTH_OFFSET = 0.69
 
 
 def video_measurements(
@@ -484,7 +482,7 @@ def video_measurements(
     """Visual measurements of an AV16.3 sequence computed from its video frames.
 
     By default the colour-histogram measurements of the audio-visual SMC-PHD trackers:
-    :class:`~avtrack.detect.colour.ColourTemplateDetector` with the sequence's
+    :class:`~avtrack.visual.colour.ColourTemplateDetector` with the sequence's
     ``hist_temp_16bins`` templates (the non-placeholder cells), one point per template and
     frame, at the window's mouth offset (:data:`TEMPLATE_MOUTH_OFFSET`).
 
@@ -507,9 +505,9 @@ def video_measurements(
         The video cannot be read, its size is not the calibration's image size, or its frame
         count differs from the sequence's.
     """
-    from avtrack.detect.colour import ColourTemplateDetector
     from avtrack.errors import InputError
     from avtrack.io.video import iter_frames, probe_video
+    from avtrack.visual.colour import ColourTemplateDetector
 
     info = probe_video(video)
     if tuple(info.image_size) != tuple(IMAGE_SIZE):

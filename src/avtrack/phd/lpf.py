@@ -1,4 +1,4 @@
-"""AV-LPF-SMC-PHD: the labelled non-zero particle flow SMC-PHD filter (seed 004 §3, Alg. 1).
+"""AV-LPF-SMC-PHD: the labelled non-zero particle flow SMC-PHD filter (Liu et al. §3, Alg. 1).
 
 Every particle carries an audio label ``l_ring`` and a visual label ``l_breve`` — the
 measurement it is associated with, 0 for none — instead of a cluster:
@@ -105,7 +105,7 @@ def _majority(tids: np.ndarray, weights: np.ndarray, group: np.ndarray, n_groups
 
 @register_phd_filter("lpf")
 class LPFSMCPHD(SMCPHDFilter):
-    """AV-LPF-SMC-PHD filter (seed 004, Algorithm 1).
+    """AV-LPF-SMC-PHD filter (Liu et al., Algorithm 1).
 
     Parameters
     ----------

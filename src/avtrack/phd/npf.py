@@ -1,4 +1,4 @@
-"""AV-NPF-SMC-PHD: the non-zero particle flow SMC-PHD filter with clustering (seed 004 §2, the
+"""AV-NPF-SMC-PHD: the non-zero particle flow SMC-PHD filter with clustering (Liu et al. §2, the
 baseline of ref. [9]).
 
 - The predicted particles are clustered by k-means (k-means++ seeding, ref. [15]) into
@@ -98,7 +98,7 @@ def kmeans(
 
 @register_phd_filter("npf")
 class NPFSMCPHD(SMCPHDFilter):
-    """AV-NPF-SMC-PHD filter (seed 004 §2, ref. [9]).
+    """AV-NPF-SMC-PHD filter (Liu et al. §2, ref. [9]).
 
     Parameters
     ----------

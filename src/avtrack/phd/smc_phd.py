@@ -1,4 +1,4 @@
-"""Particle SMC-PHD core shared by the AV-NPF and AV-LPF filters (seed 004 §2–3).
+"""Particle SMC-PHD core shared by the AV-NPF and AV-LPF filters (Liu et al., §2–3).
 
 Model: a speaker state ``m = [x, y, vx, vy]`` (pixels, pixels per frame) follows the
 constant-velocity model ``m_k = F m_{k-1} + n``, ``n ~ N(0, Q)`` (eq. 1 / 14). The PHD is a

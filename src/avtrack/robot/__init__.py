@@ -16,8 +16,9 @@ Modules
   "follow" / "jump" policies.
 - :mod:`~avtrack.robot.calibration` -- motor–camera calibration from chessboard extrinsics
   (the Frobenius cost of §3.2.5).
-- :mod:`~avtrack.robot.simulate` -- closed-loop NAO-MPVS-like sequences (``follow1`` ...
-  ``jump3``).
+
+Closed-loop NAO-MPVS-like sequences (``follow1`` ... ``jump3``) are simulated by
+:mod:`avtrack.simulate.robot`.
 
 Reference: Y. Ban, *Audio-Visual Multiple-Speaker Tracking for Robot Perception*, PhD thesis,
 2019, §3.2.
@@ -35,19 +36,10 @@ from avtrack.robot.servo import (
     servo_jacobian,
     servo_velocity,
 )
-from avtrack.robot.simulate import (
-    ROBOT_SCENARIOS,
-    RobotSimConfig,
-    RobotSimResult,
-    simulate_robot,
-    track_recording,
-    write_robot_sim,
-)
 from avtrack.robot.stereo import StereoMatchConfig, StereoRig, match_stereo, stereo_faces
 from avtrack.robot.tracker import RobotTracker, RobotTrackerConfig
 
 __all__ = [
-    "ROBOT_SCENARIOS",
     "SERVO_POLICIES",
     "FaceObservations",
     "FollowFirst",
@@ -55,8 +47,6 @@ __all__ = [
     "HeadMotion",
     "JumpPolicy",
     "RobotHead",
-    "RobotSimConfig",
-    "RobotSimResult",
     "RobotTracker",
     "RobotTrackerConfig",
     "ServoPolicy",
@@ -74,8 +64,5 @@ __all__ = [
     "nao_head",
     "servo_jacobian",
     "servo_velocity",
-    "simulate_robot",
     "stereo_faces",
-    "track_recording",
-    "write_robot_sim",
 ]

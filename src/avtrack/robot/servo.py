@@ -21,29 +21,19 @@ Policies (thesis §3.2.6): :class:`FollowFirst` ("servo the first tracked person
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from avtrack.registry import Registry
 from avtrack.robot.base import ServoPolicy, TrackedPeople
 from avtrack.robot.head import RobotHead
 
 #: Registry of servo policies by name.
-SERVO_POLICIES: dict[str, type[ServoPolicy]] = {}
+SERVO_POLICIES: Registry[type[ServoPolicy]] = Registry("servo policy")
 
-
-def register_policy(name: str) -> Callable[[type[ServoPolicy]], type[ServoPolicy]]:
-    """Class decorator adding a :class:`ServoPolicy` to :data:`SERVO_POLICIES`."""
-
-    def wrap(cls: type[ServoPolicy]) -> type[ServoPolicy]:
-        if name in SERVO_POLICIES:
-            raise ValueError(f"servo policy {name!r} is already registered")
-        cls.name = name
-        SERVO_POLICIES[name] = cls
-        return cls
-
-    return wrap
+#: Class decorator adding a :class:`ServoPolicy` to :data:`SERVO_POLICIES` under a name.
+register_policy = SERVO_POLICIES.register
 
 
 @register_policy("follow")

@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from avtrack.io.camera import PinholeCamera
 from avtrack.robot.base import OBS_DIM, FaceObservations
-from avtrack.simulate.camera import PinholeCamera
 
 #: Rotation home-camera → room of the canonical :class:`PinholeCamera` (position 0, yaw 0,
 #: pitch 0): its rows are the camera's right, down and forward axes in room coordinates.
@@ -157,7 +157,7 @@ class StereoRig:
 
     # ------------------------------------------------------------------ simulation helpers
     def pinhole_cameras(self) -> tuple[PinholeCamera, PinholeCamera]:
-        """The left and right cameras as :class:`~avtrack.simulate.camera.PinholeCamera` in the
+        """The left and right cameras as :class:`~avtrack.io.camera.PinholeCamera` in the
         *canonical room*: the frame in which the left camera sits at the origin looking along
         +x with no pitch. Map left-camera-frame points there with :meth:`to_canonical`."""
         left = PinholeCamera(

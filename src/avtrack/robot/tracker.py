@@ -12,10 +12,10 @@ left-camera frame, face box size in pixels, velocity in m/s), dynamics
 with the control term :math:`C_{tn}` of :mod:`avtrack.robot.egomotion` (eq. 3.45), and
 observations :math:`o_{tm} = [X_{tm}, W_{tm}]` from the stereo pair (:func:`stereo_faces`)
 with full covariances :math:`\Phi_{tm}` and an appearance descriptor. Each frame runs the VEM
-engine (:class:`~avtrack.tracking.engine.VEMEngine`): E-Z as eq. 3.20, E-S as eqs.
+engine (:class:`~avtrack.vem.engine.VEMEngine`): E-Z as eq. 3.20, E-S as eqs.
 3.37–3.38 -- the engine's prediction :math:`(D\mu + C, \Lambda + D\Gamma D^\top)` with the
 control term is exactly the prior part of eqs. 3.37–3.38 -- then, as in
-:class:`~avtrack.tracking.ovbt.OVBTracker`, the visibility HMM (eqs. 3.31–3.32), death, and
+:class:`~avtrack.visual.ovbt.OVBTracker`, the visibility HMM (eqs. 3.31–3.32), death, and
 birth from smooth sequences of unassigned observations (eq. 3.30, window :math:`T_{new}=4`).
 
 Targets that the head has turned away from stay in the engine: their predicted position
@@ -29,24 +29,29 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
-from avtrack.models.appearance import APPEARANCE_MODELS, AppearanceLikelihood
-from avtrack.models.base import ObservationModel
-from avtrack.models.dynamics import constant_velocity_transition
 from avtrack.robot.base import OBS_DIM, STATE_DIM, FaceObservations, HeadMotion, TrackedPeople
 from avtrack.robot.egomotion import control_vector, ego_displacement_scale
 from avtrack.robot.head import RobotHead
-from avtrack.tracking.birth import (
+from avtrack.vem.birth import (
     birth_candidates,
     born_states,
     consume_pool,
     select_births,
 )
-from avtrack.tracking.engine import VEMEngine
-from avtrack.tracking.visibility import visibility_filter
+from avtrack.vem.dynamics import constant_velocity_transition
+from avtrack.vem.engine import VEMEngine
+from avtrack.vem.model import ObservationModel
+from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
+from avtrack.vem.visibility import visibility_filter
+from avtrack.visual.appearance import (
+    APPEARANCE_MODELS,
+    AppearanceLikelihood,
+    init_appearance_model,
+)
 
 _LOG_2PI = float(np.log(2 * np.pi))
 CONTROL_MODES = ("jacobian", "exact", "none")
@@ -55,7 +60,7 @@ CONTROL_MODES = ("jacobian", "exact", "none")
 class FaceObservationModel(ObservationModel):
     r"""Gaussian 3-D face likelihood with full covariances, clutter and appearance.
 
-    E-Z (thesis eq. 3.20–3.21, as :class:`~avtrack.models.visual.BoxObservationModel` but
+    E-Z (thesis eq. 3.20–3.21, as :class:`~avtrack.visual.model.BoxObservationModel` but
     with :math:`P = [I_5\ 0]` on ``[X, W, Ẋ]`` and a full :math:`\Phi_{tm}`):
 
     .. math::
@@ -78,6 +83,10 @@ class FaceObservationModel(ObservationModel):
     """
 
     name = "stereo-face"
+    log_clutter_density: float
+    appearance: AppearanceLikelihood | None
+    appearance_update: float
+    references: np.ndarray | None  # (N, F)
 
     def __init__(
         self,
@@ -85,14 +94,7 @@ class FaceObservationModel(ObservationModel):
         appearance: AppearanceLikelihood | None = None,
         appearance_update: float = 0.0,
     ):
-        if not np.isfinite(log_clutter_density):
-            raise ValueError(f"log_clutter_density must be finite, got {log_clutter_density}")
-        if not 0.0 <= appearance_update <= 1.0:
-            raise ValueError(f"appearance_update must be in [0, 1], got {appearance_update}")
-        self.log_clutter_density = float(log_clutter_density)
-        self.appearance = appearance
-        self.appearance_update = float(appearance_update)
-        self.references: np.ndarray | None = None  # (N, F)
+        init_appearance_model(self, log_clutter_density, appearance, appearance_update)
 
     def n_observations(self, obs: FaceObservations) -> int:
         return len(obs)
@@ -278,17 +280,6 @@ class RobotTrackerConfig:
                 f"{self.appearance_update!r}"
             )
 
-    @classmethod
-    def from_dict(cls, values: dict) -> RobotTrackerConfig:
-        """Build from a mapping, rejecting unknown keys by name."""
-        known = {f.name for f in fields(cls)}
-        unknown = sorted(set(values) - known)
-        if unknown:
-            raise ValueError(
-                f"unknown robot tracker parameter(s) {unknown}; known: {sorted(known)}"
-            )
-        return cls(**values)
-
 
 @dataclass(frozen=True)
 class RobotFrameTracks:
@@ -314,7 +305,7 @@ class RobotFrameTracks:
     p_visible: np.ndarray
 
 
-class RobotTracker:
+class RobotTracker(ManagedTargets):
     """Online 3-D multi-person tracker for a moving stereo head (thesis §3.2).
 
     Parameters
@@ -362,16 +353,16 @@ class RobotTracker:
             marginal_init=cfg.marginal_init,
             exclusive=cfg.exclusive,
         )
-        self.p_visible = np.zeros(0)
-        self.invisible_run = np.zeros(0, dtype=np.int64)
-        self.unseen_run = np.zeros(0, dtype=np.int64)
-        self.mass_history = np.zeros((0, cfg.visibility_window))
+        self.p_visible: np.ndarray
+        self.invisible_run: np.ndarray
+        self.unseen_run: np.ndarray
+        self.mass_history: np.ndarray
+        #: ``(N, 3)`` control term of the last frame (zeros without motion / control).
+        self.last_control: np.ndarray
+        self._init_targets()
         self._pool: deque[FaceObservations] = deque(maxlen=cfg.birth_frames + 1)
-        self._next_id = 1
         self._has_appearance: bool | None = None
         self.frame = 0
-        #: ``(N, 3)`` control term of the last frame (zeros without motion / control).
-        self.last_control = np.zeros((0, 3))
 
     # ------------------------------------------------------------------ covariances
     def _dyn_var(self, mu: np.ndarray, motion: HeadMotion | None) -> np.ndarray:
@@ -547,13 +538,16 @@ class RobotTracker:
             self.p_visible[show].copy(),
         )
 
-    def _remove(self, keep: np.ndarray) -> None:
-        self.engine.remove_targets(keep)
-        self.p_visible = self.p_visible[keep]
-        self.invisible_run = self.invisible_run[keep]
-        self.unseen_run = self.unseen_run[keep]
-        self.mass_history = self.mass_history[keep]
-        self.last_control = self.last_control[keep]
+    def _per_target(self) -> tuple[PerTarget, ...]:
+        """Visibility posterior, frames invisible in view and unseen in a row, visibility
+        evidence window, last control term."""
+        return (
+            PerTarget("p_visible", 1.0),
+            PerTarget("invisible_run", 0, dtype=np.int64),
+            PerTarget("unseen_run", 0, dtype=np.int64),
+            PerTarget("mass_history", 1.0, (self.config.visibility_window,)),
+            PerTarget("last_control", 0.0, (3,)),
+        )
 
     def _birth(self) -> None:
         cfg = self.config
@@ -572,35 +566,15 @@ class RobotTracker:
         if cands and visible.any():
             # a new person cannot stand inside a visible person's box (duplicates)
             mu = self.engine.mu[visible]
-            cand = np.stack([c.mu[:OBS_DIM] for c in cands])
-            inside = _intersection_over_first(
-                self._boxes(cand[:, :3], cand[:, 3:5]), self._boxes(mu[:, :3], mu[:, 3:5])
-            ).max(axis=1)
-            cands = [
-                c for c, o in zip(cands, inside, strict=True) if not o > cfg.birth_max_overlap
-            ]
+            cands = births_outside(
+                cands,
+                lambda m: self._boxes(m[:, :3], m[:, 3:5]),
+                self._boxes(mu[:, :3], mu[:, 3:5]),
+                cfg.birth_max_overlap,
+            )
         born = select_births(cands, cfg.birth_threshold)
         if not born:
             return
-        k = len(born)
-        ids = np.arange(self._next_id, self._next_id + k)
-        self._next_id += k
         mu, gamma, init = born_states(born, self._pool[-1].appearance)
-        self.engine.add_targets(ids, mu, gamma, [init])
-        self.p_visible = np.concatenate([self.p_visible, np.ones(k)])
-        self.invisible_run = np.concatenate([self.invisible_run, np.zeros(k, dtype=np.int64)])
-        self.unseen_run = np.concatenate([self.unseen_run, np.zeros(k, dtype=np.int64)])
-        self.mass_history = np.vstack([self.mass_history, np.ones((k, cfg.visibility_window))])
-        self.last_control = np.vstack([self.last_control, np.zeros((k, 3))])
+        self._add_targets(self._new_ids(len(born)), mu, gamma, [init])
         consume_pool(self._pool, born)
-
-
-def _intersection_over_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``(K, 4), (N, 4)`` ltwh boxes -> ``(K, N)`` area(a ∩ b) / area(a) (0 for empty a)."""
-    lt = np.maximum(a[:, None, :2], b[None, :, :2])
-    rb = np.minimum(a[:, None, :2] + a[:, None, 2:], b[None, :, :2] + b[None, :, 2:])
-    wh = np.maximum(rb - lt, 0.0)
-    area = a[:, 2] * a[:, 3]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out = wh[:, :, 0] * wh[:, :, 1] / area[:, None]
-    return np.nan_to_num(out, nan=0.0, posinf=0.0)

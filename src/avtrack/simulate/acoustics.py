@@ -79,7 +79,8 @@ import scipy.fft
 import scipy.signal
 
 from avtrack.audio.arrays import SPEED_OF_SOUND, MicArray
-from avtrack.audio.hrtf import HRIRSet, wrap_azimuth
+from avtrack.audio.hrtf import HRIRSet
+from avtrack.io.doa import wrap_azimuth
 
 SINC_HALF = 16
 """Half length of the fractional-delay kernel (33 taps)."""

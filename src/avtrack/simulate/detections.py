@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
-from avtrack.simulate.camera import PinholeCamera
 
 
 def _pair(name: str, value: tuple[float, float], positive: bool = False) -> tuple[float, float]:

@@ -2,7 +2,7 @@
 
 ``avtrack simulate NAME -o DIR [--seed S] [--duration SECONDS]`` uses these. Each builder
 returns a raw scenario mapping (validated afterwards by
-:func:`avtrack.simulate.scenario.validate_scenario`); the seed decides the number of people,
+:func:`avtrack.io.scenario.validate_scenario`); the seed decides the number of people,
 where they are and how they move, so two seeds give two different scenes and one seed always
 gives the same one.
 
@@ -24,6 +24,7 @@ walkout        2-3 people in front of a 4-microphone array and a camera; each wa
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -62,7 +63,7 @@ def meeting(seed: int, duration: float) -> dict:
             pos2 = [centre[0] + d2 * np.cos(ang2), centre[1] + d2 * np.sin(ang2), height]
             t1 = float(rng.uniform(0.2, 0.5) * duration)
             t2 = t1 + max(0.5, float(np.linalg.norm(np.subtract(pos2, pos)) / 0.6))
-            motion = {
+            motion: dict[str, Any] = {
                 "type": "waypoints",
                 "waypoints": [
                     [0.0, *pos],

@@ -37,14 +37,14 @@ import soundfile as sf
 from avtrack.audio.arrays import BUILTIN_ARRAYS, MicArray, builtin_array, load_array
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.datasets import find_shared_data
 from avtrack.io.doa import DOATable, write_doa_csv
 from avtrack.io.mot import write_mot
 from avtrack.io.rttm import RTTMSegment, write_rttm
+from avtrack.io.scenario import dump_scenario
 from avtrack.simulate import acoustics
-from avtrack.simulate.camera import PinholeCamera
 from avtrack.simulate.detections import DetectorConfig, SimulatedDetections, simulate_detections
-from avtrack.simulate.scenario import dump_scenario
 from avtrack.simulate.speech import (
     SpeechSegment,
     fill_segments,
@@ -280,7 +280,7 @@ def simulate_scene(
     Parameters
     ----------
     scenario : dict
-        Output of :func:`~avtrack.simulate.scenario.validate_scenario`.
+        Output of :func:`~avtrack.io.scenario.validate_scenario`.
     data_dir : Path, optional
         The shared data folder (speech, HRIRs, recorded tracks); found automatically if omitted.
     scenario_path : Path, optional

@@ -10,7 +10,6 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +17,7 @@ import soundfile as sf
 from scipy.signal import istft, resample_poly, stft
 
 from avtrack.errors import InputError
+from avtrack.io.rttm import SpeechSegment
 
 AUDIO_SUFFIXES = (".wav", ".flac", ".ogg")
 
@@ -32,49 +32,6 @@ _VOWELS = np.array(
     ]
 )
 _BANDWIDTHS = np.array([80.0, 100.0, 150.0])  # formant bandwidths, Hz
-
-
-@dataclass(frozen=True)
-class SpeechSegment:
-    """One speaker talking from ``start`` to ``end`` (seconds).
-
-    Attributes
-    ----------
-    speaker : int
-        1-based person id.
-    start, end : float
-        Seconds, ``0 <= start < end``.
-    utterance : str
-        What fills the segment: a file name, ``"synthetic"``, or ``"vad"`` for segments read
-        from a voice-activity track.
-    """
-
-    speaker: int
-    start: float
-    end: float
-    utterance: str = "synthetic"
-
-    def __post_init__(self) -> None:
-        s = self.speaker
-        if isinstance(s, bool) or not isinstance(s, int | np.integer) or s < 1:
-            raise ValueError(f"SpeechSegment: speaker must be an integer >= 1, got {s!r}")
-        object.__setattr__(self, "speaker", int(s))
-        start, end = float(self.start), float(self.end)
-        if not (math.isfinite(start) and start >= 0):
-            raise ValueError(f"SpeechSegment: start must be finite and >= 0, got {self.start!r}")
-        if not (math.isfinite(end) and end > start):
-            raise ValueError(
-                f"SpeechSegment: end must be finite and > start ({start:g}), got {self.end!r}"
-            )
-        object.__setattr__(self, "start", start)
-        object.__setattr__(self, "end", end)
-        if not isinstance(self.utterance, str):
-            raise ValueError(f"SpeechSegment: utterance must be a str, got {self.utterance!r}")
-
-    @property
-    def duration(self) -> float:
-        """``end - start`` in seconds."""
-        return self.end - self.start
 
 
 # ---------------------------------------------------------------------------- schedules

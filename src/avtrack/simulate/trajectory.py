@@ -80,7 +80,7 @@ class Trajectory:
         if self.present.shape[0] == 0:
             return np.ones(t.shape, dtype=bool)
         inside = (t[:, None] >= self.present[None, :, 0]) & (t[:, None] < self.present[None, :, 1])
-        return inside.any(axis=1)
+        return np.asarray(inside.any(axis=1))
 
     def sample(self, t: np.ndarray) -> np.ndarray:
         """``(N, 3)`` positions with NaN rows where the person is absent."""

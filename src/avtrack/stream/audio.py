@@ -19,8 +19,7 @@ from typing import Any
 import numpy as np
 
 from avtrack.audio.arrays import MicArray
-from avtrack.localize import DirectionGrid, make_localizer
-from avtrack.tracking.doa_base import (
+from avtrack.doa.base import (
     DEFAULT_OBSERVATIONS,
     OBSERVATION_MODES,
     PEAK_FLOOR,
@@ -28,6 +27,7 @@ from avtrack.tracking.doa_base import (
     heatmap_sequence,
     make_tracker,
 )
+from avtrack.localize import DirectionGrid, make_localizer
 
 
 @dataclass(frozen=True, eq=False)
@@ -66,14 +66,14 @@ class DOAStream:
     observations : {"all", "above-median", "peaks"}, optional
         Every candidate direction, the same above each frame's median weight, or only the heat
         map's peaks (default: the tracker's own,
-        :data:`~avtrack.tracking.doa_base.DEFAULT_OBSERVATIONS`).
+        :data:`~avtrack.doa.base.DEFAULT_OBSERVATIONS`).
     grid : DirectionGrid, optional
         Candidate directions (default: 72 azimuths every 5 degrees).
     method_config, tracker_config : optional
         The localizer's and the tracker's ``Config`` dataclasses (default parameters).
     floor : float
         With peak observations, drop peaks below this weight (default
-        :data:`~avtrack.tracking.doa_base.PEAK_FLOOR`).
+        :data:`~avtrack.doa.base.PEAK_FLOOR`).
 
     Examples
     --------

@@ -12,7 +12,7 @@ Latency and memory are bounded: when one input runs more than ``max_lag`` frames
 other (a stalled microphone or camera), the oldest waiting frame is tracked with what there is
 -- detections without audio, or audio with no detections -- and the late input for that frame
 is dropped when it comes; :attr:`AVStream.stats` counts both cases. Fed in order with no
-stall, the frames are exactly those of :func:`avtrack.tracking.vavit.track_scene`.
+stall, the frames are exactly those of :func:`avtrack.av.vavit.track_scene`.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy as np
 
 from avtrack.av.features import AudioFeatureConfig, AudioFeatureExtractor, AudioFeatures
 from avtrack.av.gllim import AudioImageMapping
-from avtrack.tracking.vavit import AVFrameTracks, VAVITConfig, VAVITracker
+from avtrack.av.vavit import AVFrameTracks, VAVITConfig, VAVITracker
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,13 +146,9 @@ class AVStream:
     ) -> list[AVStreamFrame]:
         """Detections of the next video frame; return the frames that can now be tracked.
 
-        Parameters
-        ----------
-        boxes : ndarray (M, 4)
-            Head boxes (left, top, width, height), pixels.
-        scores : ndarray (M,), optional
-        appearance : ndarray (M, F), optional
-            Given for every frame or for none.
+        ``boxes``, ``scores`` and ``appearance`` are those of
+        :meth:`VAVITracker.step <avtrack.av.vavit.VAVITracker.step>`; ``appearance`` is given
+        for every frame or for none.
         """
         boxes = np.asarray(boxes, dtype=float)
         if boxes.size == 0:

@@ -41,11 +41,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from avtrack.io.base import temp_output
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
-from avtrack.simulate.camera import PinholeCamera
 
 if TYPE_CHECKING:
-    from avtrack.tracking.vavit import AVSceneResult, SceneInputs
+    from avtrack.av.vavit import AVSceneResult
+    from avtrack.io.scene import SceneInputs
 
 #: Four-character code of the encoder used for each file suffix.
 VIDEO_CODECS: dict[str, str] = {".mp4": "mp4v", ".webm": "VP80"}
@@ -724,7 +725,7 @@ def render_overlay_video(
         ``.mp4`` or ``.webm`` file (:data:`VIDEO_CODECS`); its folder is created if needed.
     tracks : MOTData
         Tracked head boxes ``(left, top, width, height)``, 1-based frames, one id per track
-        (e.g. :attr:`AVSceneResult.tracks <avtrack.tracking.vavit.AVSceneResult>`).
+        (e.g. :attr:`AVSceneResult.tracks <avtrack.av.vavit.AVSceneResult>`).
     speaking : ndarray (len(tracks),) bool or None
         Whether the track of each row speaks at that frame (``AVSceneResult.speaking``);
         None: nobody speaks.
@@ -845,9 +846,9 @@ def render_scene_video(
     Parameters
     ----------
     scene : str, Path or SceneInputs
-        The scene directory, or its inputs from :func:`avtrack.tracking.vavit.load_scene`.
+        The scene directory, or its inputs from :func:`avtrack.io.scene.load_scene`.
     result : AVSceneResult
-        From :func:`avtrack.tracking.vavit.track_scene` on that scene.
+        From :func:`avtrack.av.vavit.track_scene` on that scene.
     path : str or Path
         ``.mp4`` or ``.webm`` destination.
     ground_truth : bool
@@ -863,10 +864,11 @@ def render_scene_video(
     """
     import json
 
+    from avtrack.av.persons_scene import PersonsResult
+    from avtrack.av.vavit import AVSceneResult
     from avtrack.errors import InputError
     from avtrack.io.mot import read_mot
-    from avtrack.tracking.persons_scene import PersonsResult
-    from avtrack.tracking.vavit import AVSceneResult, SceneInputs, load_scene
+    from avtrack.io.scene import SceneInputs, load_scene
 
     if not isinstance(result, AVSceneResult | PersonsResult):
         raise TypeError(

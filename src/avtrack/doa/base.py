@@ -1,0 +1,503 @@
+r"""DOA tracker interface, registry and data shared by every acoustic tracker (thesis ch. 5).
+
+The trackers themselves are listed in :mod:`avtrack.doa`.
+
+A tracker is an online object: :meth:`DOATracker.step` takes one frame of observations --
+azimuths ``(M,)`` in degrees and their weights / confidences ``(M,)`` -- and returns the
+:class:`TrackFrame` of the tracks alive after it, with their speaker-activity decision
+(eqs. 5.43 / 5.62). :meth:`DOATracker.run` is the batch helper over a :class:`DOASequence`
+(built from heat maps ``(T, D)`` over candidate azimuths ``(D,)`` or from a DOA CSV) and returns
+a :class:`~avtrack.io.doa.DOATable` (``id`` ≥ 1, ``active`` = speaking).
+
+Angles are in degrees in the public API, wrapped to (−180, 180].
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from avtrack.io.doa import DOATable, wrap_azimuth
+from avtrack.registry import Registry
+
+
+def check_config_fields(
+    config: Any,
+    positive: tuple[str, ...] = (),
+    finite: tuple[str, ...] = (),
+    counts: tuple[str, ...] = (),
+) -> None:
+    """Validate a tracker config's numeric fields, naming the class and field on failure.
+
+    ``positive``: finite numbers > 0; ``finite``: finite numbers; ``counts``: integers >= 1.
+    Booleans are rejected everywhere (``True`` is not a number of iterations).
+    """
+    owner = type(config).__name__
+    for name in positive:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+            raise ValueError(f"{owner}.{name} must be a positive number, got {v!r}")
+    for name in finite:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v)):
+            raise ValueError(f"{owner}.{name} must be a finite number, got {v!r}")
+    for name in counts:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not (isinstance(v, int) and v >= 1):
+            raise ValueError(f"{owner}.{name} must be an integer >= 1, got {v!r}")
+
+
+TRACKERS: Registry[type[DOATracker]] = Registry("DOA tracker")
+"""Registered DOA tracker classes by name (``"gauss"``, ``"vonmises"``); the package
+:mod:`avtrack.doa` imports every built-in tracker, so it is complete once ``avtrack.doa`` is
+imported."""
+
+#: Tracker update period of thesis §5.5.2: one update every 32 ms (4 STFT hops of 8 ms).
+FRAME_PERIOD_S = 0.032
+
+#: How a tracker can observe a heat map (:func:`heatmap_sequence`): every candidate direction
+#: with its weight (``"all"``, thesis §5.4 as written), every candidate with the frame's median
+#: weight subtracted and clipped at 0 (``"above-median"``), or only the peaks of the heat map
+#: (``"peaks"``, the peak lists of §5.6.5).
+OBSERVATION_MODES = ("all", "above-median", "peaks")
+
+#: What each tracker observes by default. The Gaussian tracker takes every candidate but
+#: without the frame's median weight: the EG weights keep a near-uniform floor (the entropy
+#: regularisation of eq. 5.19), and with every weight acting as a precision (eq. 5.22) that
+#: floor pins a silent track where it is and spreads its activity mass (eq. 5.43) over ±40°;
+#: see BENCHMARKS.md (acoustic multi-speaker tracking) for the measured effect.
+DEFAULT_OBSERVATIONS = {"gauss": "above-median", "vonmises": "peaks"}
+
+#: Peaks of a block-mean heat map below this weight are not observations.
+PEAK_FLOOR = 0.05
+
+
+#: Class decorator registering a :class:`DOATracker` subclass under a name.
+register_tracker = TRACKERS.register
+
+
+def make_tracker(
+    name: str, config: Any = None, frame_period_s: float = FRAME_PERIOD_S
+) -> DOATracker:
+    """Instantiate the tracker registered as ``name`` (see :data:`TRACKERS`)."""
+    if name not in TRACKERS:
+        raise ValueError(f"make_tracker: name must be one of {sorted(TRACKERS)}, got {name!r}")
+    return TRACKERS[name](config, frame_period_s)
+
+
+@dataclass(frozen=True, eq=False)
+class TrackFrame:
+    """The tracks alive after one frame.
+
+    Attributes
+    ----------
+    ids : ndarray (K,) int
+        Track identities (≥ 1).
+    azimuth_deg : ndarray (K,)
+        Posterior mean directions, degrees in (−180, 180].
+    active : ndarray (K,) bool
+        Speaker-activity decision (eq. 5.43 / 5.62).
+    activity : ndarray (K,)
+        The activity statistic compared with the threshold.
+    """
+
+    ids: np.ndarray
+    azimuth_deg: np.ndarray
+    active: np.ndarray
+    activity: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.ids.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class DOASequence:
+    """Frames of DOA observations for a tracker.
+
+    Attributes
+    ----------
+    frames : ndarray (T,) int
+        Frame index of each tracker frame (the localizer's frame it is reported at).
+    time_s : ndarray (T,)
+        Time of each frame, seconds.
+    azimuth_deg : tuple of T ndarrays (M_t,)
+        Observed azimuths (candidate directions or peaks), degrees.
+    weight : tuple of T ndarrays (M_t,)
+        Their weights / confidences, ≥ 0.
+    """
+
+    frames: np.ndarray
+    time_s: np.ndarray
+    azimuth_deg: tuple[np.ndarray, ...]
+    weight: tuple[np.ndarray, ...]
+
+    def __post_init__(self) -> None:
+        t_ = np.shape(self.frames)[0] if np.ndim(self.frames) == 1 else -1
+        if t_ < 0 or np.shape(self.time_s) != (t_,):
+            raise ValueError(
+                f"DOASequence: frames and time_s must be (T,), got "
+                f"{np.shape(self.frames)} and {np.shape(self.time_s)}"
+            )
+        if len(self.azimuth_deg) != t_ or len(self.weight) != t_:
+            raise ValueError(
+                f"DOASequence: azimuth_deg and weight need one array per frame "
+                f"({t_}), got {len(self.azimuth_deg)} and {len(self.weight)}"
+            )
+        for k, (a, w) in enumerate(zip(self.azimuth_deg, self.weight, strict=True)):
+            if np.ndim(a) != 1 or np.shape(a) != np.shape(w):
+                raise ValueError(
+                    f"DOASequence: frame {k}: azimuth_deg and weight must be "
+                    f"(M,) arrays of one length, got {np.shape(a)}, {np.shape(w)}"
+                )
+        object.__setattr__(self, "frames", np.asarray(self.frames, dtype=np.int64))
+        object.__setattr__(self, "time_s", np.asarray(self.time_s, dtype=float))
+
+    def __len__(self) -> int:
+        return int(self.frames.shape[0])
+
+    @classmethod
+    def from_weights(
+        cls,
+        weights: np.ndarray,
+        azimuth_deg: np.ndarray,
+        frames: np.ndarray | None = None,
+        time_s: np.ndarray | None = None,
+        step: int = 1,
+        mode: str = "mean",
+        peaks_only: bool = False,
+        floor: float = 0.0,
+        frame_period_s: float = 0.008,
+        baseline: str = "none",
+    ) -> DOASequence:
+        """Observations from heat maps over fixed candidate directions.
+
+        Parameters
+        ----------
+        weights : ndarray (T, D)
+            Weight of each candidate at each localizer frame (e.g. EG weights, eq. 5.19).
+        azimuth_deg : ndarray (D,)
+            Candidate azimuths, degrees.
+        frames, time_s : ndarray (T,), optional
+            Localizer frame indices and times (default ``0..T-1`` and ``frames *
+            frame_period_s``).
+        step : int
+            One tracker frame per ``step`` localizer frames (thesis §5.5.2: 4, i.e. 32 ms),
+            reported at the last frame of each block; a last incomplete block is dropped.
+        mode : {"mean", "last"}
+            The block's weights: their mean, or those of its last frame.
+        peaks_only : bool
+            Keep only the circular local maxima of each frame's weights (the peak lists of
+            thesis §5.6.5) instead of every candidate.
+        floor : float
+            Drop observations with a weight below ``floor``.
+        frame_period_s : float
+            Localizer frame period, for the default times.
+        baseline : {"none", "median"}
+            ``"median"``: subtract each tracker frame's median weight from its weights and clip
+            at 0 (before ``floor`` and ``peaks_only``), removing the uniform floor of a heat map.
+        """
+        w = np.asarray(weights, dtype=float)
+        az = np.asarray(azimuth_deg, dtype=float).reshape(-1)
+        if w.ndim != 2 or w.shape[1] != az.size:
+            raise ValueError(
+                f"weights must have shape (T, {az.size}) for {az.size} candidate "
+                f"azimuths, got {w.shape}"
+            )
+        if not (np.all(np.isfinite(w)) and np.all(np.isfinite(az))):
+            raise ValueError("weights and azimuth_deg must be finite")
+        if w.size and w.min() < 0:
+            raise ValueError(f"weights must be >= 0, got min {w.min()}")
+        if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
+            raise ValueError(f"step must be a positive integer, got {step!r}")
+        if mode not in ("mean", "last"):
+            raise ValueError(f"mode must be 'mean' or 'last', got {mode!r}")
+        if baseline not in ("none", "median"):
+            raise ValueError(f"baseline must be 'none' or 'median', got {baseline!r}")
+        t_ = w.shape[0]
+        frames = np.arange(t_) if frames is None else np.asarray(frames, dtype=np.int64)
+        time_s = frames * frame_period_s if time_s is None else np.asarray(time_s, dtype=float)
+        if frames.shape != (t_,) or time_s.shape != (t_,):
+            raise ValueError(
+                f"frames and time_s must have shape ({t_},), got {frames.shape} and {time_s.shape}"
+            )
+        n_blocks = t_ // step
+        last = np.arange(n_blocks) * step + step - 1
+        if mode == "mean":
+            w = w[: n_blocks * step].reshape(n_blocks, step, -1).mean(axis=1)
+        else:
+            w = w[last]
+        if baseline == "median" and w.size:
+            w = np.maximum(w - np.median(w, axis=1, keepdims=True), 0.0)
+        keep: np.ndarray = np.asarray(w >= floor) if floor > 0 else np.ones(w.shape, dtype=bool)
+        if peaks_only:
+            keep &= circular_peaks(w)
+        az.setflags(write=False)
+        full = np.asarray(keep.all(axis=1))
+        azs = tuple(az if full[k] else az[keep[k]] for k in range(n_blocks))
+        ws = tuple(w[k] if full[k] else w[k, keep[k]] for k in range(n_blocks))
+        return cls(frames[last], time_s[last], azs, ws)
+
+    @classmethod
+    def from_table(
+        cls, table: DOATable, step: int = 1, frame_period_s: float | None = None
+    ) -> DOASequence:
+        """Observations from a DOA CSV table (e.g. another localizer's peaks).
+
+        Every localizer frame from the first to the last frame of ``table`` is covered; the
+        rows of each block of ``step`` frames are pooled, each keeping its weight as its
+        confidence, and reported at the block's last frame. Only rows with ``active`` set are
+        used.
+
+        Parameters
+        ----------
+        table : DOATable
+        step : int
+            Localizer frames per tracker frame.
+        frame_period_s : float, optional
+            Localizer frame period (default: from the table's frames and times, else 8 ms).
+        """
+        if not isinstance(table, DOATable):
+            raise TypeError(f"table must be a DOATable, got {type(table).__name__}")
+        if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
+            raise ValueError(f"step must be a positive integer, got {step!r}")
+        rows = table.select(table.active)
+        if len(rows) == 0:
+            empty = np.zeros(0)
+            return cls(np.zeros(0, np.int64), empty, (), ())
+        f = rows.frames
+        if frame_period_s is None:
+            uf, first = np.unique(f, return_index=True)
+            if uf.size > 1:
+                frame_period_s = float(np.median(np.diff(rows.time_s[first]) / np.diff(uf)))
+            else:
+                frame_period_s = 0.008
+        if not frame_period_s > 0:
+            raise ValueError(f"frame_period_s must be > 0, got {frame_period_s!r}")
+        offset = float(np.median(rows.time_s - f * frame_period_s))
+        f0 = int(f.min())
+        block = (f - f0) // step
+        n_blocks = int(block.max()) + 1
+        order = np.argsort(block, kind="stable")
+        starts = np.searchsorted(block[order], np.arange(n_blocks + 1))
+        az, w = rows.azimuth_deg[order], rows.weight[order]
+        if w.size and w.min() < 0:
+            raise ValueError("DOA table weights must be >= 0 to be used as confidences")
+        frames = f0 + np.arange(n_blocks) * step + step - 1
+        azs = tuple(az[starts[k] : starts[k + 1]] for k in range(n_blocks))
+        ws = tuple(w[starts[k] : starts[k + 1]] for k in range(n_blocks))
+        return cls(frames, np.maximum(offset + frames * frame_period_s, 0.0), azs, ws)
+
+
+def heatmap_sequence(
+    weights: np.ndarray,
+    azimuth_deg: np.ndarray,
+    frames: np.ndarray | None = None,
+    time_s: np.ndarray | None = None,
+    step: int = 4,
+    observations: str = "all",
+    floor: float = PEAK_FLOOR,
+) -> DOASequence:
+    """Tracker observations from heat maps ``(T, D)`` in one of :data:`OBSERVATION_MODES`.
+
+    One tracker frame per ``step`` localizer frames with the block's mean weights (thesis
+    §5.5.2: 4, i.e. 32 ms); ``"peaks"`` keeps the peaks at or above ``floor`` (the other modes
+    ignore it). Use ``DEFAULT_OBSERVATIONS[tracker]`` for a tracker's default.
+    """
+    if observations not in OBSERVATION_MODES:
+        raise ValueError(
+            f"observations must be one of {OBSERVATION_MODES}, got {observations!r}"
+        )
+    peaks = observations == "peaks"
+    return DOASequence.from_weights(
+        weights,
+        azimuth_deg,
+        frames,
+        time_s,
+        step=step,
+        mode="mean",
+        peaks_only=peaks,
+        floor=floor if peaks else 0.0,
+        baseline="median" if observations == "above-median" else "none",
+    )
+
+
+def circular_peaks(weights: np.ndarray) -> np.ndarray:
+    """Mask ``(T, D)`` of the local maxima of each row, neighbours wrapping around (a plateau
+    gives one peak, a constant row none)."""
+    w = np.asarray(weights, dtype=float)
+    return (w > np.roll(w, 1, axis=-1)) & (w >= np.roll(w, -1, axis=-1))
+
+
+class SpeakerActivity:
+    r"""Speaker-activity detection from the weighted assignment mass (eqs. 5.43 and 5.62).
+
+    Track ``n`` is active at frame ``t`` when
+    :math:`\sum_{i=t-L'+1}^{t}\sum_d \alpha_{idn} w_{id} > \delta`.
+
+    Parameters
+    ----------
+    window : int
+        :math:`L'` (eq. 5.43: 3) or :math:`D + 1` (eq. 5.62: ``D = 2``).
+    threshold : float
+        :math:`\delta`.
+    """
+
+    def __init__(self, window: int, threshold: float):
+        if isinstance(window, bool) or not isinstance(window, int) or window < 1:
+            raise ValueError(f"window must be an integer >= 1, got {window!r}")
+        if not np.isfinite(threshold):
+            raise ValueError(f"threshold must be finite, got {threshold!r}")
+        self.window = window
+        self.threshold = float(threshold)
+        self.history = np.zeros((0, window))  # a ring buffer over the last L' frames
+        self.silent_frames = np.zeros(0, dtype=np.int64)
+        self._slot = 0
+
+    def update(self, mass: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Push this frame's ``mass (N,)``; return the statistic ``(N,)`` and the decision."""
+        self.history[:, self._slot] = mass
+        self._slot = (self._slot + 1) % self.window
+        score = self.history.sum(axis=1)  # Σ over the last L' frames, eq. 5.43
+        active = score > self.threshold
+        self.silent_frames = np.where(active, 0, self.silent_frames + 1)
+        return score, active
+
+    def add(self, count: int, mass: float = 0.0) -> None:
+        """Append ``count`` new tracks with ``mass`` in every slot of their window."""
+        self.history = np.vstack([self.history, np.full((count, self.window), mass)])
+        self.silent_frames = np.concatenate([self.silent_frames, np.zeros(count, dtype=np.int64)])
+
+    def remove(self, keep: np.ndarray) -> None:
+        """Keep the tracks where ``keep (N,)`` is True."""
+        self.history = self.history[keep]
+        self.silent_frames = self.silent_frames[keep]
+
+
+class DOATracker(ABC):
+    """Online multi-speaker DOA tracker.
+
+    Parameters
+    ----------
+    config : optional
+        The implementation's parameters (its ``Config`` dataclass); default ``Config()``.
+    frame_period_s : float
+        Time between two :meth:`step` calls, seconds (thesis §5.5.2: 32 ms).
+    """
+
+    name: ClassVar[str] = ""
+    Config: ClassVar[type] = type(None)
+
+    def __init__(self, config: Any = None, frame_period_s: float = FRAME_PERIOD_S):
+        config = self.Config() if config is None else config
+        if not isinstance(config, self.Config):
+            raise TypeError(
+                f"{type(self).__name__}: config must be a {self.Config.__name__}, "
+                f"got {type(config).__name__}"
+            )
+        if not (
+            isinstance(frame_period_s, int | float)
+            and np.isfinite(frame_period_s)
+            and frame_period_s > 0
+        ):
+            raise ValueError(
+                f"frame_period_s must be a positive number of seconds, got {frame_period_s!r}"
+            )
+        self.config: Any = config
+        self.frame_period_s = float(frame_period_s)
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget every track (a new recording)."""
+        self.frame = 0
+        self._next_id = 1
+        self._azimuths: tuple[np.ndarray, np.ndarray] | None = None
+        self._reset_state()
+
+    def _new_ids(self, count: int) -> np.ndarray:
+        ids = np.arange(self._next_id, self._next_id + count, dtype=np.int64)
+        self._next_id += count
+        return ids
+
+    def step(self, azimuth_deg: np.ndarray, weight: np.ndarray) -> TrackFrame:
+        """Process one frame of observations.
+
+        Parameters
+        ----------
+        azimuth_deg : ndarray (M,)
+            Observed azimuths, degrees (any finite value; wrapped internally).
+        weight : ndarray (M,)
+            Their weights / confidences, ≥ 0.
+
+        Returns
+        -------
+        TrackFrame
+            The tracks alive after this frame.
+        """
+        w = np.asarray(weight, dtype=float)
+        cached = self._azimuths
+        if cached is not None and azimuth_deg is cached[0]:
+            az, rad = cached  # the same read-only candidate directions as the last frame
+        else:
+            az = np.asarray(azimuth_deg, dtype=float)
+            if az.ndim != 1 or not np.all(np.isfinite(az)):
+                raise ValueError(f"azimuth_deg must be a finite (M,) array, got shape {az.shape}")
+            rad = np.deg2rad(az)
+            if isinstance(azimuth_deg, np.ndarray) and not azimuth_deg.flags.writeable:
+                rad.flags.writeable = False
+                self._azimuths = (azimuth_deg, rad)
+        if w.shape != az.shape:
+            raise ValueError(
+                f"azimuth_deg and weight must be (M,) arrays of one length, got "
+                f"{az.shape} and {w.shape}"
+            )
+        if w.size and not w.min() >= 0:  # also rejects NaN
+            raise ValueError(f"weight must be finite and >= 0, got min {w.min()}")
+        if w.size and not np.isfinite(w.max()):
+            raise ValueError("weight must be finite")
+        self.frame += 1
+        return self._step(rad, w)
+
+    def run(self, sequence: DOASequence) -> DOATable:
+        """Track a whole sequence from a fresh state (batch helper around :meth:`step`).
+
+        Returns
+        -------
+        DOATable
+            One row per alive track per frame: ``id`` ≥ 1, ``weight`` the activity statistic,
+            ``active`` the speaker-activity decision.
+        """
+        if not isinstance(sequence, DOASequence):
+            raise TypeError(f"sequence must be a DOASequence, got {type(sequence).__name__}")
+        self.reset()
+        outs = [
+            self.step(a, w) for a, w in zip(sequence.azimuth_deg, sequence.weight, strict=True)
+        ]
+        return frames_to_table(outs, sequence.frames, sequence.time_s)
+
+    @abstractmethod
+    def _reset_state(self) -> None:
+        """Clear the tracks and the learned parameters."""
+
+    @abstractmethod
+    def _step(self, azimuth_rad: np.ndarray, weight: np.ndarray) -> TrackFrame:
+        """One frame on validated observations (azimuths in radians)."""
+
+
+def frames_to_table(outs: list[TrackFrame], frames: np.ndarray, time_s: np.ndarray) -> DOATable:
+    """Per-frame :class:`TrackFrame` results as a :class:`~avtrack.io.doa.DOATable`."""
+    counts = np.array([len(o) for o in outs], dtype=np.int64)
+    if counts.sum() == 0:
+        return DOATable.empty()
+    cat = np.concatenate
+    return DOATable(
+        np.repeat(np.asarray(frames, dtype=np.int64), counts),
+        np.repeat(np.asarray(time_s, dtype=float), counts),
+        cat([o.ids for o in outs]),
+        wrap_azimuth(cat([o.azimuth_deg for o in outs])),
+        np.zeros(int(counts.sum())),
+        cat([o.activity for o in outs]),
+        cat([o.active for o in outs]),
+    )

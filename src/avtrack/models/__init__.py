@@ -1,1 +1,0 @@
-"""Observation and dynamics models that plug into the VEM engine."""

@@ -1,0 +1,434 @@
+r"""OVBT: online variational-Bayesian visual multi-person tracking (thesis §3.1).
+
+Per frame: VEM on the box observation model (engine, thesis eqs. 2.22–2.29 / 3.20–3.29),
+then the visibility HMM (eqs. 3.31–3.32), death after ``death_frames`` invisible frames
+(§3.1.4), and birth from smooth sequences of clutter-assigned detections (eq. 3.30).
+Sleeping (invisible) targets stay in the engine, so a matching appearance can wake them up.
+
+Example
+-------
+>>> from avtrack.visual.ovbt import OVBTracker
+>>> tracker = OVBTracker(image_size=(640, 480))
+>>> for boxes, scores in frames:            # boxes (M, 4) left, top, width, height
+...     out = tracker.step(boxes, scores)   # out.ids (K,), out.boxes (K, 4)
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from avtrack.io.mot import MOTData
+from avtrack.vem.birth import (
+    BirthCandidate,
+    birth_candidates,
+    born_states,
+    consume_pool,
+    select_births,
+)
+from avtrack.vem.dynamics import (
+    box_dynamics_covariance,
+    box_dynamics_variance,
+    cap_box_scale,
+    constant_velocity_transition,
+)
+from avtrack.vem.engine import VEMEngine
+from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
+from avtrack.vem.updates import ones
+from avtrack.vem.visibility import visibility_filter
+from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
+from avtrack.visual.model import (
+    BOX_DIM,
+    BoxObservationModel,
+    BoxObservations,
+    box_observation_variance,
+    ltwh_to_xywh,
+    xywh_to_ltwh,
+)
+
+
+@dataclass(frozen=True)
+class OVBTConfig:
+    """Parameters of the visual tracker (one default configuration for all sequences).
+
+    Noise levels are standard deviations as fractions of the box size (thesis §3.1.5 scales
+    the covariances with the detected box; see :func:`box_observation_variance`).
+    """
+
+    n_iter: int = 3  #: VEM iterations per frame
+    obs_std_pos: float = 0.1  #: Φ: centre std / box size
+    obs_std_size: float = 0.1  #: Φ: size std / box size
+    dyn_std_pos: float = 0.05  #: Λ: centre std per frame / box size
+    dyn_std_size: float = 0.03  #: Λ: size std per frame / box size
+    dyn_std_vel: float = 0.02  #: Λ: velocity std per frame / box size
+    update_priors: bool = True  #: M-step of the assignment priors, eq. 3.29
+    marginal_init: bool = True  #: first E-Z step with the predictive marginal, eq. 2.8
+    exclusive: bool = True  #: a target explains at most one detection per frame
+    max_state_std: float = 0.5  #: cap on every state std / box size (coasting tracks)
+    dynamics_mstep: bool = False  #: M-step of Λ, eq. 2.27 (thesis §3.1.3 keeps Λ size-based)
+    birth_frames: int = 2  #: B of eq. 3.30 (sequences of B + 1 detections)
+    birth_threshold: float = 0.0  #: birth when the log-likelihood ratio exceeds this
+    birth_velocity_std: float = 0.05  #: prior velocity std at birth / box size, per frame
+    birth_gate: float = 18.47  #: χ²₄(0.999) gate on each innovation of a birth sequence
+    #: at frame 1, every detection starts a target (no history to score eq. 3.30 against);
+    #: then, before frame B + 1, births from all the frames so far
+    startup_birth: bool = True
+    birth_max_overlap: float = 0.5  #: reject a birth whose box lies this much inside a target's
+    visibility_stay: float = 0.9  #: π_v of the visibility HMM
+    visibility_lambda: float = 1.0  #: λ of eq. 3.32
+    visibility_window: int = 2  #: frames summed into the visibility evidence ν
+    death_frames: int = 10  #: delete a target invisible this many frames (thesis: 10)
+    min_score: float = 0.0  #: drop detections with a lower confidence
+    appearance: str = "bhattacharyya"  #: "bhattacharyya" (histograms) or "cosine" (embeddings)
+    appearance_lambda: float = 10.0  #: λ of eq. 3.5 (or κ for "cosine")
+    appearance_update: float = 0.1  #: reference-appearance update rate (0: birth appearance)
+    #: re-identification: a newborn whose appearance log-ratio (eq. 3.5) against a target that
+    #: died at most ``reid_max_age`` frames ago exceeds this, and whose box centre lies within
+    #: ``reid_max_distance`` box widths of where that target was, takes its identity (None: off)
+    reid_log_ratio: float | None = None
+    reid_max_age: int = 50
+    reid_max_distance: float = 3.0
+
+    def __post_init__(self) -> None:
+        positive = ("obs_std_pos", "obs_std_size", "dyn_std_pos", "dyn_std_size",
+                    "dyn_std_vel", "max_state_std", "birth_max_overlap", "birth_velocity_std",
+                    "birth_gate", "visibility_lambda", "appearance_lambda",
+                    "reid_max_distance")
+        for name in positive:
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and np.isfinite(v) and v > 0):
+                raise ValueError(f"OVBTConfig.{name} must be a positive number, got {v!r}")
+        for name in ("n_iter", "birth_frames", "visibility_window", "death_frames",
+                     "reid_max_age"):
+            v = getattr(self, name)
+            if not (isinstance(v, int) and v >= 1):
+                raise ValueError(f"OVBTConfig.{name} must be an integer >= 1, got {v!r}")
+        if not 0 < self.visibility_stay < 1:
+            raise ValueError(f"OVBTConfig.visibility_stay must be in (0, 1), "
+                             f"got {self.visibility_stay!r}")
+        if self.appearance not in APPEARANCE_MODELS:
+            raise ValueError(f"OVBTConfig.appearance must be one of "
+                             f"{sorted(APPEARANCE_MODELS)}, got {self.appearance!r}")
+        if not 0 <= self.appearance_update <= 1:
+            raise ValueError(f"OVBTConfig.appearance_update must be in [0, 1], "
+                             f"got {self.appearance_update!r}")
+        if self.reid_log_ratio is not None and not (
+            isinstance(self.reid_log_ratio, int | float) and np.isfinite(self.reid_log_ratio)
+        ):
+            raise ValueError(f"OVBTConfig.reid_log_ratio must be a finite number or None, got "
+                             f"{self.reid_log_ratio!r}")
+
+
+@dataclass(frozen=True)
+class FrameTracks:
+    """Tracks output for one frame.
+
+    Attributes
+    ----------
+    ids : ndarray (K,) int
+        Identities (≥ 1) of the visible targets.
+    boxes : ndarray (K, 4)
+        (left, top, width, height) from the posterior means.
+    p_visible : ndarray (K,)
+        Visibility posterior of each output track.
+    """
+
+    ids: np.ndarray
+    boxes: np.ndarray
+    p_visible: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+
+class OVBTracker(ManagedTargets):
+    """Online visual multi-person tracker (thesis §3.1) on the VEM engine.
+
+    Parameters
+    ----------
+    config : OVBTConfig, optional
+    image_size : (width, height)
+        Sets the clutter density :math:`u(o) = 1/(W H W H)` over box centre and size.
+    """
+
+    def __init__(self, config: OVBTConfig | None = None, image_size: tuple[int, int] = (
+            1920, 1080)):
+        self.config = config or OVBTConfig()
+        w, h = image_size
+        if not (w > 0 and h > 0):
+            raise ValueError(f"image_size must be positive (width, height), got {image_size}")
+        self.image_size = (float(w), float(h))
+        self.log_clutter = -2.0 * np.log(float(w) * float(h))  # u(o): uniform centre and size
+        cfg = self.config
+        self._appearance: AppearanceLikelihood = APPEARANCE_MODELS[cfg.appearance](
+            cfg.appearance_lambda)
+        self.model = BoxObservationModel(self.log_clutter, self._appearance,
+                                         cfg.appearance_update)
+        self.transition = constant_velocity_transition(BOX_DIM, 2)
+        self.engine = VEMEngine(self.transition, [self.model], n_iter=cfg.n_iter,
+                                update_priors=cfg.update_priors,
+                                dynamics_mstep=cfg.dynamics_mstep,
+                                marginal_init=cfg.marginal_init, exclusive=cfg.exclusive)
+        self.p_visible: np.ndarray
+        self.invisible_run: np.ndarray
+        self.mass_history: np.ndarray
+        self._init_targets()
+        self._pool: deque[BoxObservations] = deque(maxlen=cfg.birth_frames + 1)
+        self._has_appearance: bool | None = None
+        # targets ended lately, for re-identification: id -> (frame, (x, y, w), reference)
+        self._ended: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
+        self.frame = 0
+
+    def _dyn_cov(self, mu: np.ndarray) -> np.ndarray:
+        c = self.config
+        return box_dynamics_covariance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
+
+    def _dyn_var(self, mu: np.ndarray) -> np.ndarray:
+        c = self.config
+        return box_dynamics_variance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
+
+    def _velocity_var(self, z: np.ndarray) -> np.ndarray:
+        return (self.config.birth_velocity_std * np.maximum(z[:, 2:4].copy(), 1.0)) ** 2
+
+    def _observations(self, boxes, scores, appearance) -> BoxObservations:
+        boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        m = boxes.shape[0]
+        if not np.isfinite(boxes).all():
+            raise ValueError("boxes must be finite")
+        if m and not (boxes[:, 2:] > 0).all():
+            raise ValueError("box width and height must be > 0")
+        keep = np.ones(m, dtype=bool)
+        if scores is not None:
+            scores = np.asarray(scores, dtype=float).reshape(-1)
+            if scores.shape[0] != m:
+                raise ValueError(f"got {scores.shape[0]} scores for {m} boxes")
+            keep = scores >= self.config.min_score
+        kept = boxes if np.count_nonzero(keep) == m else boxes[keep]
+        app = None
+        if appearance is not None:
+            app = np.asarray(appearance, dtype=float)
+            if m == 0:  # an empty frame: keep the descriptor length known so far
+                refs = self.model.references
+                app = np.zeros((0, app.shape[-1] if app.ndim == 2 else
+                                (0 if refs is None else refs.shape[1])))
+            app = app.reshape(m, app.shape[-1] if app.ndim == 2 else -1)  # (0, F) when m = 0
+            if not np.all(np.isfinite(app)):
+                raise ValueError("appearance descriptors must be finite")
+            app = self._appearance.normalize(app[keep])
+        has = app is not None
+        if self._has_appearance is None:
+            self._has_appearance = has
+        elif self._has_appearance != has:
+            raise ValueError("appearance descriptors must be given for every frame or none")
+        z = ltwh_to_xywh(kept)
+        var = box_observation_variance(z, self.config.obs_std_pos, self.config.obs_std_size)
+        return BoxObservations(z, var, app)
+
+    def _frame_observations(self, dets: MOTData, appearance: np.ndarray | None,
+                            n_frames: int | None) -> list[BoxObservations]:
+        """What :meth:`_observations` gives for each frame ``1..n_frames`` of ``dets``,
+        computed for all rows at once (``appearance``: one row per detection, or None)."""
+        n = dets.n_frames if n_frames is None else n_frames
+        if n <= 0:
+            return []
+        # first row of each frame 1..n + 1 (as MOTData.frame_slices, without the slices)
+        bounds = np.searchsorted(dets.frames, np.arange(1, n + 2), side="left")
+        lo, hi = int(bounds[0]), int(bounds[-1])
+        first = self._observations(dets.boxes[lo:hi], dets.scores[lo:hi],
+                                   None if appearance is None else appearance[lo:hi])
+        # row index in ``first`` of each frame's start: detections below min_score are dropped
+        kept = np.zeros(hi - lo + 1, dtype=np.int64)
+        np.cumsum(dets.scores[lo:hi] >= self.config.min_score, out=kept[1:])
+        return first.split(kept[bounds - lo].tolist())
+
+    def step(self, boxes: np.ndarray, scores: np.ndarray | None = None,
+             appearance: np.ndarray | None = None) -> FrameTracks:
+        """Process one frame of detections.
+
+        Parameters
+        ----------
+        boxes : ndarray (M, 4)
+            (left, top, width, height), pixels.
+        scores : ndarray (M,), optional
+            Detection confidences (filtered by ``config.min_score``).
+        appearance : ndarray (M, F), optional
+            Colour histograms or embeddings, per the configured appearance model.
+
+        Returns
+        -------
+        FrameTracks
+            The visible targets after this frame.
+        """
+        ids, centre_boxes, p_visible = self._step(self._observations(boxes, scores, appearance))
+        return FrameTracks(ids, xywh_to_ltwh(centre_boxes), p_visible)
+
+    def _step(self, obs: BoxObservations) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`step` on prepared observations; returns the visible targets' ids ``(K,)``,
+        boxes ``(K, 4)`` as (x, y, w, h) and visibility posteriors ``(K,)``."""
+        cfg = self.config
+        self.frame += 1
+        eng = self.engine
+        # --- VEM on the existing targets ---------------------------------------------------
+        if eng.n_targets:
+            inf = eng.step([obs], self._dyn_var(eng.mu))  # Λ is diagonal
+            # cap_box_covariance on the engine's states, when some std exceeds its cap
+            scale = cap_box_scale(eng.mu, eng.variances, cfg.max_state_std)
+            if scale.ravel()[scale.argmin()] < 1.0:
+                eng.scale_covariances(scale)
+            resp, mass = inf.responsibilities[0], inf.mass[0][1:]
+            unassigned = (resp.argmax(axis=1) == 0).nonzero()[0]
+            # --- visibility (eqs. 3.31–3.32) and death (§3.1.4) ---------------------------
+            if cfg.visibility_window == 1:
+                self.mass_history, nu = mass[:, None], mass
+            else:
+                self.mass_history = np.concatenate([mass[:, None], self.mass_history[:, :-1]],
+                                                   1)
+                nu = self.mass_history.dot(ones(cfg.visibility_window))  # Σ over the window
+            self.p_visible = visibility_filter(self.p_visible, nu, cfg.visibility_stay,
+                                               cfg.visibility_lambda)
+            run = self.invisible_run + 1
+            run[self.p_visible > 0.5] = 0  # frames invisible in a row
+            self.invisible_run = run
+            keep = self.invisible_run < cfg.death_frames
+            if np.count_nonzero(keep) < keep.shape[0]:
+                self._remove(keep)
+        else:
+            unassigned = np.arange(len(obs))
+        # --- birth (eq. 3.30) ----------------------------------------------------------------
+        self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
+        # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far,
+        # so that the people present from the first frame are not held back.
+        if len(self._pool) == cfg.birth_frames + 1 or (
+                cfg.startup_birth and len(self._pool) == self.frame >= 2):
+            self._birth()
+        elif cfg.startup_birth and self.frame == 1:
+            self._first_frame_birth()
+        visible = self.p_visible > 0.5
+        return eng.ids[visible], eng.mu[visible, :BOX_DIM], self.p_visible[visible]
+
+    def _per_target(self) -> tuple[PerTarget, ...]:
+        """Visibility posterior, frames invisible in a row, visibility evidence window."""
+        return (
+            PerTarget("p_visible", 1.0),
+            PerTarget("invisible_run", 0, dtype=np.int64),
+            PerTarget("mass_history", 1.0, (self.config.visibility_window,)),
+        )
+
+    def _remove(self, keep: np.ndarray) -> None:
+        refs = self.model.references
+        if self.config.reid_log_ratio is not None and refs is not None:
+            for i in np.flatnonzero(~keep):
+                self._ended[int(self.engine.ids[i])] = (
+                    self.frame, self.engine.mu[i, :3].copy(), refs[i].copy())
+        super()._remove(keep)
+
+    def _birth(self) -> None:
+        cfg = self.config
+        if 0 in [p.z.shape[0] for p in self._pool]:
+            return  # every sequence needs one detection per pool frame
+        pools = [(p.z, p.var) for p in self._pool]
+        cands = birth_candidates(pools, self.transition, self._dyn_cov, self._velocity_var,
+                                 self.log_clutter, gate=cfg.birth_gate,
+                                 dynamics_var=self._dyn_var)
+        cands = births_outside(cands, lambda mu: xywh_to_ltwh(mu[:, :BOX_DIM]),
+                               xywh_to_ltwh(self.engine.mu[:, :BOX_DIM]), cfg.birth_max_overlap)
+        self._add_born(select_births(cands, cfg.birth_threshold))
+
+    def _reidentify(self, ids: np.ndarray, mu: np.ndarray, refs: np.ndarray) -> np.ndarray:
+        """Newborns that look like (eq. 3.5) and stand near a target ended lately take its id
+        (greedy, best log-ratio first)."""
+        cfg = self.config
+        self._ended = {k: v for k, v in self._ended.items()
+                       if self.frame - v[0] <= cfg.reid_max_age}
+        if not self._ended:
+            return ids
+        keys = list(self._ended)
+        old = np.stack([self._ended[k][2] for k in keys])
+        where = np.stack([self._ended[k][1] for k in keys])  # (x, y, w) when it ended
+        score = self._appearance.log_ratio(refs, old)  # (k_new, k_old)
+        dist = np.hypot(mu[:, None, 0] - where[None, :, 0], mu[:, None, 1] - where[None, :, 1])
+        score[dist > cfg.reid_max_distance * where[None, :, 2]] = -np.inf
+        ids = ids.copy()
+        while score.size and score.max() > cfg.reid_log_ratio:
+            i, j = np.unravel_index(int(np.argmax(score)), score.shape)
+            ids[i] = keys[j]
+            del self._ended[keys[j]]
+            score[i, :] = -np.inf
+            score[:, j] = -np.inf
+        return ids
+
+    def _first_frame_birth(self) -> None:
+        """Frame 1 has no history for eq. 3.30 to score, so each detection starts a target at
+        the detected box with the birth velocity prior (as SORT outputs its unconfirmed tracks
+        over the first frames; the detector's non-maximum suppression has removed duplicates).
+        A false detection makes a target that the visibility HMM soon puts to sleep."""
+        obs = self._pool[0]
+        vel_var = self._velocity_var(obs.z)  # (M, d - 4)
+        mu = np.hstack([obs.z, np.zeros_like(vel_var)])
+        gamma = np.zeros((len(obs), mu.shape[1], mu.shape[1]))
+        diag = np.arange(mu.shape[1])
+        gamma[:, diag, diag] = np.hstack([obs.var, vel_var])
+        self._add_born([BirthCandidate(np.array([m]), 0.0, mu[m], gamma[m])
+                        for m in range(len(obs))])
+
+    def _add_born(self, born: list[BirthCandidate]) -> None:
+        """Add the chosen sequences as new targets and take them out of the birth pool."""
+        if not born:
+            return
+        ids = self._new_ids(len(born))
+        mu, gamma, init = born_states(born, self._pool[-1].appearance)
+        if self.config.reid_log_ratio is not None and init is not None and self._ended:
+            ids = self._reidentify(ids, mu, init)
+        # the box model gets the appearances; any other model of a subclass (VAVIT) none
+        self._add_targets(ids, mu, gamma, [init] + [None] * (len(self.engine.models) - 1))
+        consume_pool(self._pool, born)  # no longer available to other births
+
+
+def image_size_from_detections(dets: MOTData) -> tuple[int, int]:
+    """Smallest (width, height) containing every box (a fallback when the size is unknown)."""
+    if len(dets) == 0:
+        return (1, 1)
+    right = dets.boxes[:, 0] + dets.boxes[:, 2]
+    bottom = dets.boxes[:, 1] + dets.boxes[:, 3]
+    return (int(np.ceil(max(right.max(), 1.0))), int(np.ceil(max(bottom.max(), 1.0))))
+
+
+def track_mot(
+    dets: MOTData, appearance: np.ndarray | None = None, config: OVBTConfig | None = None,
+    image_size: tuple[int, int] | None = None, n_frames: int | None = None,
+) -> MOTData:
+    """Track a whole MOTChallenge detection sequence (batch helper around :class:`OVBTracker`).
+
+    Parameters
+    ----------
+    dets : MOTData
+        Detections, sorted by frame.
+    appearance : ndarray (K, F), optional
+        One descriptor per detection row.
+    config : OVBTConfig, optional
+    image_size : (width, height), optional
+        Defaults to the extent of the detections.
+    n_frames : int, optional
+        Sequence length (defaults to the last detected frame).
+
+    Returns
+    -------
+    MOTData
+        Results (confidence = visibility posterior).
+    """
+    if appearance is not None:
+        appearance = np.asarray(appearance, dtype=float)
+        if appearance.ndim != 2 or appearance.shape[0] != len(dets):
+            raise ValueError(f"appearance must have one row per detection ({len(dets)}), got "
+                             f"shape {appearance.shape}")
+    tracker = OVBTracker(config, image_size or image_size_from_detections(dets))
+    ids, boxes, conf = [], [], []
+    for obs in tracker._frame_observations(dets, appearance, n_frames):
+        out = tracker._step(obs)
+        ids.append(out[0])
+        boxes.append(out[1])
+        conf.append(out[2])
+    if not ids:
+        return MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
+    counts = [len(i) for i in ids]
+    return MOTData(np.repeat(np.arange(1, len(ids) + 1), counts), np.concatenate(ids),
+                   xywh_to_ltwh(np.vstack(boxes)), np.concatenate(conf))
