@@ -181,27 +181,20 @@ def track_av163(
 
     from avtrack.av.persons import PersonConfig
     from avtrack.av.persons_scene import track_persons
-    from avtrack.errors import InputError
-    from avtrack.io.av163 import FACE_MOUTH_OFFSET, TEMPLATE_MOUTH_OFFSET
+    from avtrack.io.av163 import (
+        FACE_MOUTH_OFFSET,
+        TEMPLATE_MOUTH_OFFSET,
+        av163_templates,
+        probe_av163_video,
+    )
     from avtrack.io.mot import MOTData
-    from avtrack.io.video import iter_frames, probe_video
+    from avtrack.io.video import iter_frames
     from avtrack.visual.colour import ColourTemplateDetector
     from avtrack.visual.histograms import box_histograms
 
-    info = probe_video(video)
-    if tuple(info.image_size) != tuple(IMAGE_SIZE):
-        raise InputError(f"the video is {info.width}x{info.height}, the AV16.3 calibration "
-                         f"is for {IMAGE_SIZE[0]}x{IMAGE_SIZE[1]}", video)
-    if info.n_frames != seq.n_frames:
-        raise InputError(f"the video has {info.n_frames} frames, sequence {seq.seq} camera "
-                         f"{seq.cam} has {seq.n_frames} (is it the video of another sequence "
-                         f"or camera?)", video)
+    info = probe_av163_video(video, seq)
     if detector is None:
-        templates = seq.histograms[~seq.histogram_is_placeholder]
-        if len(templates) == 0:
-            raise InputError(f"hist_temp of sequence {seq.seq} camera {seq.cam} holds no "
-                             f"template (only placeholders): give a detector")
-        detector = ColourTemplateDetector(templates)
+        detector = ColourTemplateDetector(av163_templates(seq))
     if mouth_offset is None:
         mouth_offset = (TEMPLATE_MOUTH_OFFSET if isinstance(detector, ColourTemplateDetector)
                         else FACE_MOUTH_OFFSET)

@@ -242,6 +242,27 @@ def run(args: argparse.Namespace) -> int:
     return run_image(args)
 
 
+def _track_and_write(out: Path, what: str, quiet: bool, speech: bool, track):
+    """Check OUT_DIR, run ``track()`` (a PersonsResult; its ValueErrors are input errors),
+    write tracks.txt, persons.csv and (``speech``) speech.rttm; returns the result and the
+    seconds it took."""
+    if out.exists() and not out.is_dir():
+        raise InputError("output exists and is not a directory", out)
+    t0 = time.perf_counter()
+    with progress.activity(what, quiet):
+        try:
+            res = track()
+        except ValueError as exc:
+            raise InputError(str(exc)) from None
+    elapsed = time.perf_counter() - t0
+    out.mkdir(parents=True, exist_ok=True)
+    write_mot(out / "tracks.txt", res.tracks)
+    _write_text(out / "persons.csv", res.persons.to_csv())
+    if speech:
+        write_rttm(out / "speech.rttm", res.speech)
+    return res, elapsed
+
+
 def run_av163(args: argparse.Namespace) -> int:
     """SCENE_DIR is an AV16.3 folder: its real video, DOA measurements and calibration."""
     from avtrack.av.av163 import track_av163
@@ -268,19 +289,9 @@ def run_av163(args: argparse.Namespace) -> int:
 
         detector = load_detector(args.detector)
     out = args.output
-    if out.exists() and not out.is_dir():
-        raise InputError("output exists and is not a directory", out)
-    t0 = time.perf_counter()
-    with progress.activity(f"detecting and tracking {seq.n_frames} frames", args.quiet):
-        try:
-            res, _ = track_av163(seq, args.video, detector, config=config)
-        except ValueError as exc:
-            raise InputError(str(exc)) from None
-    elapsed = time.perf_counter() - t0
-    out.mkdir(parents=True, exist_ok=True)
-    write_mot(out / "tracks.txt", res.tracks)
-    _write_text(out / "persons.csv", res.persons.to_csv())
-    write_rttm(out / "speech.rttm", res.speech)
+    res, elapsed = _track_and_write(
+        out, f"detecting and tracking {seq.n_frames} frames", args.quiet, True,
+        lambda: track_av163(seq, args.video, detector, config=config)[0])
     if not args.quiet:
         duration = seq.n_frames / res.fps
         print(f"AV16.3 seq {args.seq} cam {args.cam}: tracked {seq.n_frames} frames "
@@ -447,21 +458,10 @@ def run_recording(args: argparse.Namespace) -> int:
 
         vcfg = replace(vcfg, appearance="bhattacharyya", appearance_lambda=2.0)
     out = args.output
-    if out.exists() and not out.is_dir():
-        raise InputError("output exists and is not a directory", out)
-    t0 = time.perf_counter()
-    with progress.activity(f"tracking {n_frames} frames", args.quiet):
-        try:
-            res = track_persons(dets, appearance, peaks, geometry, fps, n_frames,
-                                visual_config=vcfg, config=config, azimuth_span_deg=span)
-        except ValueError as exc:
-            raise InputError(str(exc)) from None
-    elapsed = time.perf_counter() - t0
-    out.mkdir(parents=True, exist_ok=True)
-    write_mot(out / "tracks.txt", res.tracks)
-    _write_text(out / "persons.csv", res.persons.to_csv())
-    if peaks is not None:
-        write_rttm(out / "speech.rttm", res.speech)
+    res, elapsed = _track_and_write(
+        out, f"tracking {n_frames} frames", args.quiet, peaks is not None,
+        lambda: track_persons(dets, appearance, peaks, geometry, fps, n_frames,
+                              visual_config=vcfg, config=config, azimuth_span_deg=span))
     if not args.quiet:
         print(f"tracked {n_frames} frames ({n_frames / fps:.1f} s): "
               f"{len(np.unique(res.persons.ids))} persons, {len(res.tracks)} boxes, "

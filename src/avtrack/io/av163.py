@@ -651,3 +651,35 @@ def load_av163_faces(folder: str | Path, seq: int = 45, cam: int = 1) -> MOTData
         )
     boxes = np.column_stack([r[:, 0], r[:, 1], r[:, 2] - r[:, 0], r[:, 3] - r[:, 1]])
     return MOTData(f, -np.ones(len(f)), boxes, r[:, 4])
+
+
+def probe_av163_video(video: str | Path, seq: AV163Sequence):
+    """The header of a sequence's video (:class:`~avtrack.io.video.VideoInfo`), checked
+    against the sequence: the calibration's image size and one frame per ``Timingcam`` row.
+
+    Raises
+    ------
+    InputError
+        Unreadable video, another size or another number of frames.
+    """
+    from avtrack.io.video import probe_video
+
+    info = probe_video(video)
+    if tuple(info.image_size) != tuple(IMAGE_SIZE):
+        raise InputError(f"the video is {info.width}x{info.height}, the AV16.3 calibration "
+                         f"is for {IMAGE_SIZE[0]}x{IMAGE_SIZE[1]}", video)
+    if info.n_frames != seq.n_frames:
+        raise InputError(f"the video has {info.n_frames} frames, sequence {seq.seq} camera "
+                         f"{seq.cam} has {seq.n_frames} (is it the video of another sequence "
+                         f"or camera?)", video)
+    return info
+
+
+def av163_templates(seq: AV163Sequence) -> np.ndarray:
+    """The sequence's colour templates without the placeholder cells: ``(K, 16, 16)``;
+    InputError when there is none."""
+    templates = seq.histograms[~seq.histogram_is_placeholder]
+    if len(templates) == 0:
+        raise InputError(f"hist_temp of sequence {seq.seq} camera {seq.cam} holds no template "
+                         f"(only placeholders): give a detector")
+    return templates

@@ -505,25 +505,13 @@ def video_measurements(
         The video cannot be read, its size is not the calibration's image size, or its frame
         count differs from the sequence's.
     """
-    from avtrack.errors import InputError
-    from avtrack.io.video import iter_frames, probe_video
+    from avtrack.io.av163 import av163_templates, probe_av163_video
+    from avtrack.io.video import iter_frames
     from avtrack.visual.colour import ColourTemplateDetector
 
-    info = probe_video(video)
-    if tuple(info.image_size) != tuple(IMAGE_SIZE):
-        raise InputError(
-            f"the video is {info.width}x{info.height}, the AV16.3 calibration is for "
-            f"{IMAGE_SIZE[0]}x{IMAGE_SIZE[1]}", video)
-    if abs(info.n_frames - seq.n_frames) > 0:
-        raise InputError(
-            f"the video has {info.n_frames} frames, sequence {seq.seq} camera {seq.cam} has "
-            f"{seq.n_frames} (is it the video of another sequence or camera?)", video)
+    info = probe_av163_video(video, seq)
     if detector is None:
-        templates = seq.histograms[~seq.histogram_is_placeholder]
-        if len(templates) == 0:
-            raise InputError(f"hist_temp of sequence {seq.seq} camera {seq.cam} holds no "
-                             f"template (only placeholders)")
-        detector = ColourTemplateDetector(templates)
+        detector = ColourTemplateDetector(av163_templates(seq))
     out = []
     for frame in iter_frames(video, info):
         boxes, _ = detector.detect(frame)
