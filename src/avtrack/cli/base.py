@@ -57,6 +57,11 @@ def add_common(
     parser.set_defaults(func=func)
 
 
+def add_output_option(parser: argparse.ArgumentParser, metavar: str, help: str) -> None:
+    """The required ``-o/--output`` file or directory of a command."""
+    parser.add_argument("-o", "--output", type=Path, required=True, metavar=metavar, help=help)
+
+
 def add_array_option(
     parser: argparse.ArgumentParser, required: bool = True, note: str = ""
 ) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.cli.base import add_array_option, add_command, add_common, add_output_option
 from avtrack.config import load_config
 from avtrack.doa.base import (
     DEFAULT_OBSERVATIONS,
@@ -76,14 +76,8 @@ array frame, counter-clockwise from x, in (-180, 180].""",
     p.add_argument(
         "--tracker", choices=sorted(TRACKERS), default="gauss", help="default: gauss"
     )
-    p.add_argument(
-        "-o",
-        "--output",
-        type=Path,
-        required=True,
-        metavar="TRACKS.csv",
-        help="tracks, one row per track per tracker frame (written atomically)",
-    )
+    add_output_option(p, "TRACKS.csv",
+                      "tracks, one row per track per tracker frame (written atomically)")
     p.add_argument(
         "--doa",
         type=Path,

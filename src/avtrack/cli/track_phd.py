@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common
+from avtrack.cli.base import add_command, add_common, add_output_option
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
@@ -96,14 +96,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "face detections",
     )
     p.add_argument("--config", type=Path, metavar="FILE.yaml", help="PHDConfig fields")
-    p.add_argument(
-        "-o",
-        "--output",
-        type=Path,
-        required=True,
-        metavar="TRACKS.csv",
-        help="output CSV (written atomically)",
-    )
+    add_output_option(p, "TRACKS.csv", "output CSV (written atomically)")
     p.add_argument(
         "--plot",
         type=Path,
