@@ -187,7 +187,7 @@ def test_progress_bar_on_a_terminal_only(doa_csv, tmp_path, terminal, capsys, mo
     assert printed.err.endswith("\r")  # erased when done
     assert printed.out.startswith("tracked 40 frames")
     monkeypatch.setattr(progress, "stderr_is_terminal", lambda: False)  # a log file
-    assert main(["track-audio", "--doa", str(doa_csv), "-o", str(out)]) == 0
+    assert main(["track-audio", "--doa", str(doa_csv), "-o", str(out), "--force"]) == 0
     assert capsys.readouterr().err == ""
 
 

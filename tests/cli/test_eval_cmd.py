@@ -185,7 +185,7 @@ def test_eval_der_matches_pyannote(tmp_path, capsys):
     for collar, skip in ((0.0, False), (0.5, False), (0.5, True)):
         out = tmp_path / "der.json"
         args = ["eval", "der", str(tmp_path / "ref.rttm"), str(tmp_path / "hyp.rttm"),
-                "--collar", str(collar), "--json", str(out), "-q"]
+                "--collar", str(collar), "--json", str(out), "-q", "--force"]
         assert main([*args, *(["--skip-overlap"] if skip else [])]) == 0
         ours = json.loads(out.read_text())["scores"]["DER"]
         ref, hyp = Annotation(), Annotation()

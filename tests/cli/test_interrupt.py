@@ -32,7 +32,7 @@ def test_killed_simulate_leaves_old_or_new_scene(tmp_path, delay):
     assert main([*args, "--duration", "1"]) == 0
     assert _consistent(out) == 1.0
     proc = subprocess.Popen(
-        [sys.executable, "-m", "avtrack.cli.main", *args, "--duration", "40"],
+        [sys.executable, "-m", "avtrack.cli.main", *args, "--duration", "40", "--force"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
@@ -52,7 +52,7 @@ def test_killed_track_mot_leaves_no_partial_result(tmp_path):
     res.write_text("old\n")
     proc = subprocess.Popen(
         [sys.executable, "-m", "avtrack.cli.main", "track-mot", str(det), "-o", str(res),
-         "--image-size", "640x480", "-q"],
+         "--image-size", "640x480", "-q", "--force"],
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     time.sleep(1.5)

@@ -160,9 +160,10 @@ def test_cli_simulate_named_and_file(tmp_path, capsys):
     )
     assert rc == 0 and (out / "audio.wav").is_file()
     assert "walkout (seed 3)" in capsys.readouterr().out
-    # re-simulate from the written scene.yaml into the same directory: identical audio
+    # re-simulate from the written scene.yaml into the same directory (--force: it is not
+    # empty): identical audio
     before = sf.read(out / "audio.wav")[0]
-    rc = main(["simulate", str(out / "scene.yaml"), "-o", str(out), "-q"])
+    rc = main(["simulate", str(out / "scene.yaml"), "-o", str(out), "-q", "--force"])
     assert rc == 0
     np.testing.assert_array_equal(sf.read(out / "audio.wav")[0], before)
 

@@ -68,7 +68,7 @@ def test_detect_video_and_track_mot_with_a_plugin(tmp_path, capsys):
                  "-q"]) == 0
     rows = [r.split(",") for r in out.read_text().splitlines()]
     assert len(rows) >= 10 and len({r[1] for r in rows}) == 1
-    assert main(["track-mot", "-o", str(out)]) == 2
+    assert main(["track-mot", "-o", str(out), "--force"]) == 2
     assert "give DET.txt, or --video" in capsys.readouterr().err
     assert main(["track-mot", "-o", str(tmp_path / "r.txt"), "--video", str(video),
                  "--detector", "tests.visual.test_detect:BadDetector"]) == 2

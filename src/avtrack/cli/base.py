@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import os
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
@@ -54,6 +55,9 @@ def add_common(
     g = parser.add_mutually_exclusive_group()
     g.add_argument("-q", "--quiet", action="store_true", help="print only errors")
     g.add_argument("-v", "--verbose", action="store_true", help="print progress details")
+    parser.add_argument("--force", action="store_true",
+                        help="overwrite existing outputs (without it an existing output file, "
+                        "or a non-empty output folder, stops the command before any work)")
     parser.set_defaults(func=func)
 
 
@@ -112,7 +116,7 @@ class _Unset:
 #: Action kinds a file can set: a value, or a switch.
 _SETTABLE = (argparse._StoreAction, argparse._StoreTrueAction, argparse._StoreFalseAction)
 #: Options that are not settings: what to print, how much to print, the file itself.
-_NOT_SETTINGS = ("help", "version", "quiet", "verbose", "config")
+_NOT_SETTINGS = ("help", "version", "quiet", "verbose", "config", "force")
 
 
 def _settings(parser: argparse.ArgumentParser, exclude) -> dict[str, argparse.Action]:
@@ -192,6 +196,7 @@ def add_config_option(parser: argparse.ArgumentParser, exclude: tuple[str, ...] 
     @functools.wraps(func)
     def run_with_config(args: argparse.Namespace) -> int:
         apply_config_file(args, settings)
+        check_outputs(args)  # the file may have named the outputs
         return func(args)
 
     parser.set_defaults(func=run_with_config)
@@ -212,10 +217,63 @@ def apply_config_file(args: argparse.Namespace, settings: Mapping[str, argparse.
             setattr(args, dest, checked.get(dest, current.value))
 
 
+#: Arguments that name files a command writes.
+OUTPUT_ARGS = ("output", "json", "plot", "markdown")
+#: Commands whose ``--output`` is a folder.
+FOLDER_OUTPUTS = ("track-av", "demo", "simulate", "bench", "robot-sim")
+
+
+def check_outputs(args: argparse.Namespace) -> None:
+    """The output policy, applied before anything is computed.
+
+    - An output that is one of the command's input files is refused (it would destroy it).
+    - An existing output file, or a non-empty output folder, is refused unless ``--force``.
+    - A file output must not be a folder, and a folder output must not be a file.
+    - The output's location must be creatable: its nearest existing parent is a writable
+      folder (not a file).
+    """
+    raw = {k: (v.value if isinstance(v, _Unset) else v) for k, v in vars(args).items()}
+    values = {k: v for k, v in raw.items() if isinstance(v, Path)}
+    inputs = [v for k, v in values.items() if k not in OUTPUT_ARGS and v.is_file()]
+    force = bool(raw.get("force", False))
+    for name in OUTPUT_ARGS:
+        out = values.get(name)
+        if out is None or str(out) == "-":
+            continue
+        folder = name == "output" and getattr(args, "command", None) in FOLDER_OUTPUTS
+        option = "-o" if name == "output" else f"--{name}"
+        if out.exists():
+            for inp in inputs:
+                try:
+                    same = out.samefile(inp)
+                except OSError:
+                    same = False
+                if same:
+                    raise InputError(f"the output ({name}) is the input {inp}: refusing to "
+                                     f"overwrite it", out)
+            if folder and not out.is_dir():
+                raise InputError(f"{option} must be a folder; this is a file", out)
+            if not folder and out.is_dir():
+                raise InputError(f"{option} must name a file; this is a folder", out)
+            if not force and (not folder or any(out.iterdir())):
+                what = "folder is not empty" if folder else "file exists"
+                raise InputError(f"the output {what}; give --force to overwrite it", out)
+        parent = out if (folder and out.is_dir()) else out.parent
+        while not parent.exists() and parent != parent.parent:
+            parent = parent.parent
+        if not parent.is_dir():
+            raise InputError(f"cannot create {option} there: {parent} is a file, not a folder",
+                             out)
+        if not os.access(parent, os.W_OK | os.X_OK):
+            raise InputError(f"cannot write {option} there: {parent} is not writable", out)
+
+
+
 __all__ = [
     "HelpFormatter",
     "add_command",
     "add_common",
     "add_config_option",
     "apply_config_file",
+    "check_outputs",
 ]

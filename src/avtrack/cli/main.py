@@ -11,7 +11,7 @@ import importlib
 import sys
 
 from avtrack import __version__
-from avtrack.cli.base import HelpFormatter
+from avtrack.cli.base import HelpFormatter, check_outputs
 from avtrack.errors import InputError
 
 #: Modules under ``avtrack.cli`` that define ``register(subparsers)``, in help order.
@@ -79,29 +79,12 @@ def _modules_for(argv: list[str]) -> tuple[str, ...]:
     return tuple(m for m in COMMAND_MODULES if command_name(m) == first)
 
 
-#: Arguments that name files a command writes.
-OUTPUT_ARGS = ("output", "json", "plot", "markdown")
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, turned into the same unwinding as Ctrl-C so that temporaries are removed."""
 
 
-def refuse_output_over_input(args: argparse.Namespace) -> None:
-    """An output file that is one of the command's input files would destroy that input: refuse
-    it before anything is computed."""
-    from pathlib import Path
-
-    values = {k: v for k, v in vars(args).items() if isinstance(v, Path)}
-    inputs = [v for k, v in values.items() if k not in OUTPUT_ARGS and v.is_file()]
-    for name in OUTPUT_ARGS:
-        out = values.get(name)
-        if out is None or not out.exists():
-            continue
-        for inp in inputs:
-            try:
-                same = out.samefile(inp)
-            except OSError:
-                same = False
-            if same:
-                raise InputError(f"the output ({name}) is the input {inp}: refusing to "
-                                 f"overwrite it", out)
+def _terminate(signum, frame) -> None:
+    raise Terminated()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -111,15 +94,39 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
+    import signal
+    import threading
+
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        refuse_output_over_input(args)
+        check_outputs(args)
         return int(args.func(args) or 0)
     except InputError as exc:
         print(f"avtrack: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # the reader of our output went away (``... -o - | head``): stop quietly
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except OSError as exc:
+        # the system refused (disk full, permissions, a path that is a folder ...): one line
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"avtrack: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except Terminated:
+        print("avtrack: terminated", file=sys.stderr)
+        return 143
     except KeyboardInterrupt:
         print("avtrack: interrupted", file=sys.stderr)
         return 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -92,6 +92,8 @@ def resolve_scenario(args: argparse.Namespace) -> tuple[dict, Path | None]:
     """The validated scenario the arguments describe, and the file it came from."""
     name = args.scenario
     path = None
+    if args.seed is not None and args.seed < 0:
+        raise InputError(f"--seed must be >= 0, got {args.seed}")
     if name in SCENARIOS:
         if args.duration is not None and args.duration <= 0:
             raise InputError(f"--duration must be > 0 seconds, got {args.duration}")
@@ -112,8 +114,6 @@ def resolve_scenario(args: argparse.Namespace) -> tuple[dict, Path | None]:
         raw["array"] = {**raw["array"], "name": args.array, "hrir": False}
     if args.utterances is not None:
         raw["speech"] = {**raw.get("speech", {}), "utterances": args.utterances}
-    if args.seed is not None and args.seed < 0:
-        raise InputError(f"--seed must be >= 0, got {args.seed}")
     return validate_scenario(raw, path), path
 
 

@@ -80,7 +80,7 @@ per track per frame with bounded latency and memory.""",
         "--output",
         type=Path,
         metavar="TRACKS.csv",
-        help="write the rows to this file instead of stdout",
+        help="write the rows to this file instead of stdout ('-': stdout)",
     )
     p.add_argument(
         "--config", type=Path, metavar="FILE.yaml", help="localizer: and tracker: parameters"
@@ -138,9 +138,8 @@ def run(args: argparse.Namespace) -> int:
             )
         # -o: rows go to a temporary file renamed onto the output when the stream ends -- also
         # on Ctrl-C, caught inside the block (complete rows only); a killed run leaves no file
-        sink_cm = contextlib.nullcontext(sys.stdout) if args.output is None else atomic_write(
-            args.output
-        )
+        to_stdout = args.output is None or str(args.output) == "-"
+        sink_cm = contextlib.nullcontext(sys.stdout) if to_stdout else atomic_write(args.output)
         with sink_cm as sink:
             sink.write(DOA_HEADER + "\n")
             try:
@@ -165,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
         elapsed = time.perf_counter() - t0
         print(
             f"streamed {seconds:.1f} s of audio: {frames} tracker frames, {rows} track rows"
-            + (f" -> {args.output}" if args.output else "")
+            + (f" -> {args.output}" if args.output and str(args.output) != "-" else "")
             + f" (real-time factor {elapsed / max(seconds, 1e-9):.3f})",
             file=sys.stderr,
         )
