@@ -104,7 +104,7 @@ def load_appearance(path: Path, n_rows: int) -> np.ndarray:
         raise InputError("appearance file not found", path)
     try:
         app = np.load(path, allow_pickle=False)
-    except (ValueError, OSError) as exc:
+    except (ValueError, OSError, EOFError) as exc:  # EOFError: an empty file
         raise InputError(f"not a .npy array: {exc}", path) from None
     if app.ndim != 2 or app.shape[0] != n_rows:
         raise InputError(f"expected shape ({n_rows}, F) (one row per detection), got "
