@@ -20,6 +20,44 @@ CLIP_FRACTION = 0.001
 
 
 # -- input -------------------------------------------------------------------------------
+#: Shortest recording worth localizing: a few STFT frames and one tracker block.
+MIN_SECONDS = 0.25
+
+
+class AudioChecks:
+    """The audio-input rules of :func:`read_array_audio`, applied block by block to a stream:
+    a NaN or infinite sample stops it at once; silence, clipping and a too-short stream are
+    judged when it ends (:meth:`finish`)."""
+
+    def __init__(self, source, fs: int, allow_clipping: bool = False) -> None:
+        self.source, self.fs, self.allow_clipping = source, int(fs), bool(allow_clipping)
+        self.samples = self.values = self.clipped = 0
+        self.peak = 0.0
+
+    def block(self, x: np.ndarray) -> None:
+        """Check one block ``(n_samples, n_channels)`` or ``(n_channels, n_samples)``."""
+        if not np.all(np.isfinite(x)):
+            raise InputError(f"contains NaN or infinite samples (after {self.samples} "
+                             f"samples)", self.source)
+        self.samples += max(x.shape) if x.ndim == 2 else x.size
+        self.values += x.size
+        self.clipped += int(np.count_nonzero(np.abs(x) >= CLIP_LEVEL))
+        if x.size:
+            self.peak = max(self.peak, float(np.max(np.abs(x))))
+
+    def finish(self) -> None:
+        """InputError when the whole stream was too short, silent or clipped."""
+        if self.samples < MIN_SECONDS * self.fs:
+            raise InputError(f"is too short ({self.samples} samples); localization needs at "
+                             f"least {MIN_SECONDS:g} s", self.source)
+        if self.peak == 0:
+            raise InputError("is silent (all samples are zero)", self.source)
+        frac = self.clipped / max(self.values, 1)
+        if frac > CLIP_FRACTION and not self.allow_clipping:
+            raise InputError(
+                f"is clipped ({100 * frac:.2f} % of the samples at full scale); phases of "
+                "clipped audio are unreliable (use --allow-clipping to go on anyway)",
+                self.source)
 def read_array_audio(
     path: Path, array: MicArray, allow_clipping: bool = False, quiet: bool = False
 ) -> np.ndarray:
@@ -28,8 +66,10 @@ def read_array_audio(
     Raises
     ------
     InputError
-        Unreadable file, wrong channel count, empty, NaN/inf, silent, or clipped (more than
-        0.1 % of the samples at full scale) unless ``allow_clipping``.
+        Unreadable file, wrong channel count, empty or shorter than :data:`MIN_SECONDS`,
+        NaN/inf, silent, or clipped (more than 0.1 % of the samples at full scale) unless
+        ``allow_clipping``. The same rules hold for ``avtrack stream`` (checked as the
+        blocks come, see :class:`AudioChecks`).
     """
     import soundfile
 
@@ -49,6 +89,9 @@ def read_array_audio(
         )
     if x.shape[1] == 0:
         raise InputError("has no samples", path)
+    if x.shape[1] < MIN_SECONDS * fs:
+        raise InputError(f"is too short ({x.shape[1]} samples, {1e3 * x.shape[1] / fs:.0f} ms); "
+                         f"localization needs at least {MIN_SECONDS:g} s", path)
     if not np.all(np.isfinite(x)):
         raise InputError("contains NaN or infinite samples", path)
     peak = np.max(np.abs(x))

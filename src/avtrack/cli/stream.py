@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from avtrack.audio.recording import AudioChecks
 from avtrack.cli.base import add_array_option, add_command, add_common
 from avtrack.config import build_config, read_config_mapping
 from avtrack.errors import InputError
@@ -83,6 +84,9 @@ per track per frame with bounded latency and memory.""",
         help="write the rows to this file instead of stdout ('-': stdout)",
     )
     p.add_argument(
+        "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
+    )
+    p.add_argument(
         "--config", type=Path, metavar="FILE.yaml", help="localizer: and tracker: parameters"
     )
     add_common(p, run)
@@ -142,8 +146,10 @@ def run(args: argparse.Namespace) -> int:
         sink_cm = contextlib.nullcontext(sys.stdout) if to_stdout else atomic_write(args.output)
         with sink_cm as sink:
             sink.write(DOA_HEADER + "\n")
+            checks = AudioChecks(info.name, info.fs, args.allow_clipping)
             try:
                 for x in wav_blocks(handle, block):
+                    checks.block(x)
                     for f in stream.push(x):
                         trk = f.tracks
                         sink.writelines(
@@ -159,6 +165,7 @@ def run(args: argparse.Namespace) -> int:
                 if not args.quiet:
                     print("avtrack: interrupted; kept the rows so far", file=sys.stderr)
                 return 130
+            checks.finish()  # before the output is kept: silent, clipped or too short
     if not args.quiet:
         seconds = stream.samples_in / stream.fs
         elapsed = time.perf_counter() - t0
