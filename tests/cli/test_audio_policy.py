@@ -50,3 +50,24 @@ def test_clipping_allowed_on_request_and_a_quarter_second_is_enough(tmp_path, co
     sf.write(short, 0.1 * np.random.default_rng(1).standard_normal((4000, 4)), 16000)
     assert main([command, str(short), "--array", "nao4", "-o", str(tmp_path / "b.csv"),
                  "-q"]) == 0
+
+
+@pytest.mark.parametrize(("scale", "message"), [
+    (100.0, "positions are in metres (are these centimetres or millimetres?)"),
+    (0.0, "microphones are at one point"),
+])
+def test_array_file_in_centimetres_or_at_one_point(tmp_path, capsys, scale, message):
+    import json
+
+    from avtrack.audio.arrays import builtin_array
+
+    d = builtin_array("nao4").to_json()
+    d["positions"] = [[scale * v for v in p] for p in d["positions"]]
+    array = tmp_path / "array.json"
+    array.write_text(json.dumps(d))
+    wav = _wav(tmp_path / "ok.wav", "ok")
+    out = tmp_path / "out.csv"
+    assert main(["localize", str(wav), "--array", str(array), "-o", str(out), "-q"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err, err
+    assert not out.exists()

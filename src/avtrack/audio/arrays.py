@@ -348,7 +348,31 @@ def load_array(spec: str | Path) -> MicArray:
         raise InputError(f"cannot read the array file: {exc}", path) from None
     except json.JSONDecodeError as exc:
         raise InputError(f"invalid JSON: {exc}", path) from None
-    return MicArray.from_json(d, path)
+    array = MicArray.from_json(d, path)
+    check_aperture(array, path)
+    return array
+
+
+#: Apertures (largest distance between two microphones, metres) an array file may have:
+#: below, the microphones are at one point (no phase differences to localize from); above, the
+#: positions are almost surely in centimetres or millimetres, not metres.
+APERTURE_RANGE_M = (1e-3, 5.0)
+
+
+def check_aperture(array: MicArray, path=None) -> None:
+    """InputError for an array whose microphones coincide or whose size looks like
+    centimetres or millimetres (see :data:`APERTURE_RANGE_M`)."""
+    pos = np.asarray(array.positions, dtype=float)
+    if array.n_mics < 2:
+        return
+    aperture = float(np.max(np.linalg.norm(pos[:, None, :] - pos[None, :, :], axis=2)))
+    lo, hi = APERTURE_RANGE_M
+    if aperture < lo:
+        raise InputError(f"all {array.n_mics} microphones are at one point (aperture "
+                         f"{aperture * 1e3:.2g} mm): directions cannot be heard", path)
+    if aperture > hi:
+        raise InputError(f"the microphones are {aperture:g} apart: positions are in metres "
+                         f"(are these centimetres or millimetres?)", path)
 
 
 def write_array_json(path: str | Path, array: MicArray) -> None:
