@@ -125,6 +125,8 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
     rec.add_argument("--doa", type=Path, metavar="DOA.csv",
                      help="directions computed elsewhere (DOA CSV) instead of localizing "
                      "--audio")
+    rec.add_argument("--allow-clipping", action="store_true",
+                     help="accept an --audio recording with clipped samples")
     rec.add_argument("--fps", type=float, metavar="F",
                      help="video frame rate when there is no --video (default: the video's)")
     av = p.add_argument_group("AV16.3 (SCENE_DIR is a folder of AV16.3 MAT files; with --video)")
@@ -393,7 +395,7 @@ def run_recording(args: argparse.Namespace) -> int:
         if args.array is None:
             raise InputError("--audio needs --array (WAV channel k is microphone k)")
         array = load_array(args.array)
-        audio = read_array_audio(args.audio, array, quiet=args.quiet)
+        audio = read_array_audio(args.audio, array, args.allow_clipping, quiet=args.quiet)
     # frames
     if video is not None:
         n_frames = video.n_frames
