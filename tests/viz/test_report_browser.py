@@ -106,3 +106,22 @@ def test_demo_report_renders_offline_in_chromium(chromium_page, demo_report, tmp
     pixels = mpimg.imread(shot)
     assert pixels.shape[0] > 1500 and pixels.shape[1] >= 1000  # the whole page
     assert float(np.std(pixels[..., :3])) > 0.05  # figures drawn, not a blank page
+
+
+def test_demo_report_is_readable_on_a_400_px_screen(chromium_page, demo_report):
+    """On a phone-sized screen the page does not scroll sideways, every figure is scaled to
+    the screen, and each score carries its one-line explanation."""
+    page = chromium_page
+    page.set_viewport_size({"width": 400, "height": 800})
+    try:
+        page.goto((demo_report / "index.html").as_uri(), wait_until="load")
+        width = page.evaluate("document.documentElement.scrollWidth")
+        assert width <= 400, f"the page is {width} px wide on a 400 px screen"
+        images = page.evaluate(
+            "Array.from(document.images).map(i => i.getBoundingClientRect().width)")
+        assert images and all(0 < w <= 400 for w in images), images
+        helps = page.evaluate(
+            "Array.from(document.querySelectorAll('#scores td.help')).map(t => t.innerText)")
+        assert len(helps) >= 8 and all(("better" in h or "real time" in h) for h in helps)
+    finally:
+        page.set_viewport_size({"width": 1280, "height": 900})

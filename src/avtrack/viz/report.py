@@ -135,20 +135,71 @@ def persons_figure(persons, truth=None, view_deg: tuple[float, float] | None = N
     return _png(fig)
 
 
+def speaker_mapping(reference: Sequence[RTTMSegment],
+                    hypothesis: Sequence[RTTMSegment]) -> dict[str, str]:
+    """Hypothesis speaker -> the reference speaker it overlaps most in one optimal one-to-one
+    assignment (the mapping the diarization error rate uses); unmatched speakers are absent."""
+    from scipy.optimize import linear_sum_assignment
+
+    ref = sorted({s.speaker for s in reference})
+    hyp = sorted({s.speaker for s in hypothesis})
+    if not ref or not hyp:
+        return {}
+    overlap = np.zeros((len(hyp), len(ref)))
+    for h in hypothesis:
+        for r in reference:
+            o = min(h.start + h.duration, r.start + r.duration) - max(h.start, r.start)
+            if o > 0:
+                overlap[hyp.index(h.speaker), ref.index(r.speaker)] += o
+    rows, cols = linear_sum_assignment(-overlap)
+    return {hyp[i]: ref[j] for i, j in zip(rows, cols, strict=True) if overlap[i, j] > 0}
+
+
 def timeline_figure(reference: Sequence[RTTMSegment], hypothesis: Sequence[RTTMSegment]) -> str:
-    """Who speaks when: ground truth above, diarization below (like thesis Fig. 4.4)."""
+    """Who speaks when (like thesis Fig. 4.4): each true speaker's row (grey) directly above
+    the row of the avtrack speaker mapped to it (the optimal one-to-one mapping of the
+    diarization error rate), then the avtrack speakers mapped to nobody."""
     fig, ax = _figure(9.0, 2.6)
-    rows: list[str] = []
-    for label, segs, colour in (("truth", reference, "0.4"), ("avtrack", hypothesis, "C1")):
-        for spk in sorted({s.speaker for s in segs}):
-            rows.append(f"{label} {spk}")
-            y = len(rows) - 1
-            bars = [(s.start, s.duration) for s in segs if s.speaker == spk]
-            ax.broken_barh(bars, (y - 0.35, 0.7), color=colour)
-    ax.set_yticks(range(len(rows)), rows, fontsize=7)
+    mapping = speaker_mapping(reference, hypothesis)
+    to_hyp = {r: h for h, r in mapping.items()}
+    order: list[tuple[str, str, Sequence[RTTMSegment], str]] = []
+    for k, spk in enumerate(sorted({s.speaker for s in reference})):
+        order.append((f"truth {spk}", spk, reference, "0.45"))
+        if spk in to_hyp:
+            h = to_hyp[spk]
+            order.append((f"avtrack {h} (= {spk})", h, hypothesis, f"C{k % 10}"))
+    for h in sorted({s.speaker for s in hypothesis} - set(mapping)):
+        order.append((f"avtrack {h} (no match)", h, hypothesis, "C3"))
+    labels = []
+    for y, (label, spk, segs, colour) in enumerate(order):
+        labels.append(label)
+        bars = [(s.start, s.duration) for s in segs if s.speaker == spk]
+        ax.broken_barh(bars, (y - 0.35, 0.7), color=colour)
+    ax.set_yticks(range(len(labels)), labels, fontsize=7)
+    ax.invert_yaxis()
     ax.set_xlabel("time (s)")
     fig.tight_layout()
     return _png(fig)
+
+
+#: What each score of a report means and which way is better (shown beside the value).
+SCORE_HELP = {
+    "MOTA": "multi-object tracking accuracy, % (misses, false boxes and identity switches "
+            "together; higher is better, 100 is perfect)",
+    "IDF1": "share of boxes given the right identity over the whole sequence, % (higher is "
+            "better)",
+    "HOTA": "higher-order tracking accuracy, % (detection and association balanced; higher "
+            "is better)",
+    "IDSW": "identity switches: a true person's track changes id (lower is better)",
+    "DER %": "diarization error rate: missed speech, false speech and speaker confusion, % of "
+             "speech time (lower is better, 0 is perfect)",
+    "DOA MAE (deg)": "mean error of the detected directions of the talkers, degrees (lower is "
+                     "better)",
+    "DOA MD %": "talkers not found by the localizer, % of talker-frames (lower is better)",
+    "DOA FA %": "directions reported where nobody talks, % (lower is better)",
+    "real-time factor": "seconds of computing per second of recording (below 1: faster than "
+                        "real time)",
+}
 
 
 #: Videos up to this size are embedded in the page (data URI); larger ones are linked.
@@ -205,10 +256,10 @@ def write_report(path, title: str, scores: dict[str, float], figures: dict[str, 
 
     path = Path(path)
     rows = "".join(
-        f"<tr><th>{html.escape(k)}</th><td>{v:.2f}</td></tr>"
-        if isinstance(v, float) else f"<tr><th>{html.escape(k)}</th><td>{v}</td></tr>"
+        f"<tr><th>{html.escape(k)}</th><td>{f'{v:.2f}' if isinstance(v, float) else v}</td>"
+        f"<td class='help'>{html.escape(SCORE_HELP.get(k, ''))}</td></tr>"
         for k, v in scores.items()
-    )  # fmt: skip
+    )
     figs = "".join(
         f"<h2>{html.escape(name)}</h2><img alt='{html.escape(name)}' "
         f"src='data:image/png;base64,{data}'>"
@@ -218,8 +269,11 @@ def write_report(path, title: str, scores: dict[str, float], figures: dict[str, 
         figs += _video_block(Path(video), path.parent, [Path(p) for p in video_links])
     items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
     text = f"""<!DOCTYPE html>
-<html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
-<style>body{{font-family:sans-serif;max-width:960px;margin:2em auto;color:#222}}
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>{html.escape(title)}</title>
+<style>body{{font-family:sans-serif;max-width:960px;margin:2em auto;padding:0 8px;color:#222}}
+td.help{{color:#555;font-size:90%}}
 table{{border-collapse:collapse}}th,td{{border:1px solid #ccc;padding:4px 10px;text-align:left}}
 img,video{{max-width:100%}}</style></head>
 <body><h1>{html.escape(title)}</h1>
