@@ -132,7 +132,7 @@ def run_av(args: argparse.Namespace) -> int:
         "Head tracks (image x over time)": report.trajectories_figure(
             gt, res.tracks, scene.scenario["fps"], int(cam["width"])
         ),
-        "DOA heat map (DPRTF-EG), speaking ground truth (cyan), von Mises DOA tracks": (
+        "DOA heat map (DPRTF-EG), speaking ground truth (white), von Mises DOA tracks": (
             report.heatmap_figure(
                 heat.weights, heat.time_s, loc.grid.azimuth_deg, truth, doa_tracks
             )

@@ -71,7 +71,8 @@ def heatmap_figure(
     azimuths : ndarray (D,)
         Candidate azimuths, degrees.
     truth : DOATable, optional
-        Ground truth; its active (speaking) rows are drawn in cyan.
+        Ground truth; its active (speaking) rows are drawn in white (no track colour is
+        near it).
     tracks : DOATable, optional
         Tracker output: speaking estimates as dots coloured by track id, silent ones faint.
     """
@@ -81,7 +82,8 @@ def heatmap_figure(
               extent=(times[0], times[-1], azimuths[order][0], azimuths[order][-1]))  # fmt: skip
     if truth is not None and len(truth):
         on = truth.active
-        ax.plot(truth.time_s[on], truth.azimuth_deg[on], ",", color="cyan")
+        ax.plot(truth.time_s[on], truth.azimuth_deg[on], ",", color="white",
+                label="ground truth (speaking)")
     if tracks is not None and len(tracks):
         cmap = __import__("matplotlib").colormaps["tab10"]
         for k, tid in enumerate(np.unique(tracks.ids)):
@@ -220,6 +222,8 @@ def _video_block(path: Path, page_dir: Path, links: Sequence[Path]) -> str:
         src = html.escape(os.path.relpath(path, page_dir))
     anchors = " ".join(
         f"<a href='{html.escape(os.path.relpath(p, page_dir))}'>{html.escape(p.name)}</a>"
+        + (" (MPEG-4 Part 2: plays in VLC and other video players, not in web browsers)"
+           if p.suffix.lower() == ".mp4" else " (plays in web browsers)")
         for p in links
     )
     return (
