@@ -315,3 +315,16 @@ def test_scene_video_end_to_end(tmp_path):
     with pytest.raises(TypeError, match="AVSceneResult"):
         render_scene_video(inputs, res.tracks, tmp_path / "bad.mp4")
     assert not (tmp_path / "bad.mp4").exists()
+
+
+def test_legend_sits_at_the_top_clear_of_player_controls():
+    """A browser's video controls cover the bottom of the frame: the legend is drawn under
+    the header band at the top left, and nothing of it in the bottom third."""
+    tracks, speaking = _tracks()
+    with_legend = next(iter(render_overlay_frames(tracks, speaking, SIZE, 25.0, legend=True)))
+    without = next(iter(render_overlay_frames(tracks, speaking, SIZE, 25.0, legend=False)))
+    changed = np.any(with_legend != without, axis=2)
+    rows = np.flatnonzero(changed.any(axis=1))
+    assert rows.size > 0
+    assert rows.max() < SIZE[1] * 2 // 3, (rows.min(), rows.max(), SIZE)
+    assert rows.min() > 5  # below the header band's first text row, not over the frame edge

@@ -12,7 +12,8 @@ The simulator renders no images, so every frame is drawn here, back to front:
    the track id, as in :func:`avtrack.viz.report.trajectories_figure`) with an id tag above it;
    a track that speaks gets a thicker box, the tag ``<id> speaking`` and a speech bubble (filled
    in the track's colour, white rim and dots) beside the head, to the right of the box;
-4. the frame number, time and title in a band at the top, and a legend at the bottom left.
+4. the frame number, time and title in a band at the top, and the legend under it at the top
+   left (clear of a video player's controls, which cover the bottom).
 
 Frames are ``(height, width, 3)`` ``uint8`` BGR images (OpenCV's order). The container follows
 the file suffix, :data:`VIDEO_CODECS`: ``.mp4`` with MPEG-4 Part 2 (``mp4v``; plays in VLC and
@@ -522,10 +523,11 @@ class _Renderer:
                 _draw_bubble(img, x1 + r + lay.pad + 2, y0 + r, r, colour, cv2)
         if self.person_rows is not None:
             self._unseen_persons(img, f, set(ids.tolist()))
-        self._header(img, f)
-        if self.legend is not None:
+        band_h = self._header(img, f)
+        if self.legend is not None:  # top left, under the header: clear of player controls
             panel, alpha = self.legend
-            _blend(img, lay.pad, img.shape[0] - panel.shape[0] - lay.pad, panel, alpha)
+            _blend(img, lay.pad, min(band_h + lay.pad, img.shape[0] - panel.shape[0]), panel,
+                   alpha)
         return img
 
     def _unseen_persons(self, img: np.ndarray, f: int, boxed: set[int]) -> None:
@@ -564,7 +566,8 @@ class _Renderer:
             if talk:
                 _draw_bubble(img, int(tx + r), int(ty - 2 * r), r, colour, cv2)
 
-    def _header(self, img: np.ndarray, f: int) -> None:
+    def _header(self, img: np.ndarray, f: int) -> int:
+        """Draw the top band (frame, time, title); returns its height in pixels."""
         cv2, lay = self.cv2, self.lay
         font = cv2.FONT_HERSHEY_SIMPLEX
         text = f"frame {f}/{self.n_frames}   t = {(f - 1) / self.fps:6.2f} s"
@@ -582,6 +585,7 @@ class _Renderer:
             cv2.putText(
                 img, self.title, (x, y), font, lay.font_scale, _WHITE, lay.thick, cv2.LINE_AA
             )
+        return band_h
 
 
 # --------------------------------------------------------------------------- public API
