@@ -160,3 +160,14 @@ def test_command_exits_0_or_2_and_leaves_inputs_alone(pool, tmp_path, command, d
             fh.write(f"{rc} {argv[:8]}\n")
     assert rc in (0, 2), f"{argv} -> exit {rc}"
     assert _hashes(pool) == before, f"{argv} changed an input"
+
+
+def test_fuzzing_stays_under_2_gib():
+    """Peak resident memory of this test process, after the fuzz cases above: under 2 GiB
+    (no case may allocate by the numbers it was given)."""
+    import resource
+    import sys
+
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    peak_bytes = peak if sys.platform == "darwin" else peak * 1024  # Linux: KiB
+    assert peak_bytes < 2 * 2**30, f"peak {peak_bytes / 2**30:.2f} GiB"
