@@ -171,3 +171,13 @@ def test_true_false_and_blank_lines_accepted(tmp_path):
     t = read_doa_csv(path)
     np.testing.assert_array_equal(t.active, [True, False])
     np.testing.assert_array_equal(t.frames, [3, 4])
+
+
+def test_azimuths_per_frame_takes_active_rows_at_the_nearest_frame():
+    from avtrack.io.doa import azimuths_per_frame
+
+    table = DOATable(np.array([0, 1, 2, 3]), np.array([0.0, 0.019, 0.021, 0.5]),
+                     np.array([-1, -1, -1, -1]), np.array([10.0, 20.0, 30.0, 40.0]),
+                     np.zeros(4), np.ones(4), np.array([True, True, False, True]))
+    out = azimuths_per_frame(table, fps=50.0, n_frames=3)  # frames every 0.02 s
+    assert [v.tolist() for v in out] == [[10.0], [20.0], []]  # 0.5 s is past frame 2

@@ -341,20 +341,6 @@ def run_direction(args: argparse.Namespace) -> int:
 
 
 
-def _doa_peaks(path: Path, fps: float, n_frames: int) -> list[np.ndarray]:
-    """Azimuths per video frame from a DOA CSV (its active rows)."""
-    from avtrack.io.doa import read_doa_csv
-
-    table = read_doa_csv(path)
-    out: list[list[float]] = [[] for _ in range(n_frames)]
-    idx = np.floor(table.time_s * fps + 0.5).astype(np.int64)
-    for k, a, on in zip(idx.tolist(), table.azimuth_deg.tolist(), table.active.tolist(),
-                        strict=True):
-        if on and 0 <= k < n_frames:
-            out[k].append(a)
-    return [np.unique(np.asarray(v, dtype=float)) for v in out]
-
-
 def run_recording(args: argparse.Namespace) -> int:
     """A recording of the user's own: video (or detections), audio (or DOA), camera file."""
     from avtrack.audio.arrays import load_array
@@ -444,7 +430,9 @@ def run_recording(args: argparse.Namespace) -> int:
     peaks, span = None, 360.0
     if not args.no_audio:
         if args.doa is not None:
-            peaks = _doa_peaks(args.doa, fps, n_frames)
+            from avtrack.io.doa import azimuths_per_frame, read_doa_csv
+
+            peaks = azimuths_per_frame(read_doa_csv(args.doa), fps, n_frames)
         else:
             from avtrack.localize import make_localizer
 

@@ -14,9 +14,9 @@ from avtrack.cli.base import add_command, add_common, add_output_option
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
-from avtrack.io.base import atomic_write
 from avtrack.metrics.ospa import ospa_sequence, ospa_t
 from avtrack.phd import PHD_FILTERS, PHDConfig, PHDResult
+from avtrack.phd.base import write_tracks_csv
 from avtrack.phd.likelihood import (
     VISUAL_SOURCES,
     av163_frames,
@@ -106,14 +106,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_common(p, run)
 
 
-def write_tracks(path: Path, rows: np.ndarray) -> None:
-    """Rows ``frame, id, x, y`` as CSV with a header, atomically."""
-    with atomic_write(path) as fh:
-        fh.write("frame,id,x,y\n")
-        for f, i, x, y in rows:
-            fh.write(f"{int(f)},{int(i)},{x:.2f},{y:.2f}\n")
-
-
 def ospa_t_of(result: PHDResult, seq) -> float:
     """OSPA-T of a filter's labelled estimates against ``posGT`` (presence from ``X_true``)."""
     rows = result.rows(seq.frames)
@@ -149,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
     tracker = PHD_FILTERS[args.filter](config, seed=args.seed)
     with progress.counting(tracker, "step", len(frames), args.filter, "frame", args.quiet):
         result = tracker.run(frames)
-    write_tracks(args.output, result.rows(seq.frames))
+    write_tracks_csv(args.output, result.rows(seq.frames))
     truth = av163_truth(seq)
     ospa = ospa_sequence(result.positions(), truth, OSPA_CUTOFF, OSPA_ORDER)
     ospat = ospa_t_of(result, seq)

@@ -240,3 +240,15 @@ def read_doa_csv(path: str | Path) -> DOATable:
         np.array(cols[5]),
         np.array(cols[6], dtype=bool),
     )
+
+
+def azimuths_per_frame(table: DOATable, fps: float, n_frames: int) -> list[np.ndarray]:
+    """The active rows' azimuths of each video frame ``0 .. n_frames - 1`` (a row belongs to
+    the frame nearest its time): list of ``n_frames`` sorted, de-duplicated arrays."""
+    out: list[list[float]] = [[] for _ in range(n_frames)]
+    idx = np.floor(table.time_s * fps + 0.5).astype(np.int64)
+    for k, a, on in zip(idx.tolist(), table.azimuth_deg.tolist(), table.active.tolist(),
+                        strict=True):
+        if on and 0 <= k < n_frames:
+            out[k].append(a)
+    return [np.unique(np.asarray(v, dtype=float)) for v in out]

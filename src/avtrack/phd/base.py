@@ -259,3 +259,13 @@ PHD_FILTERS: Registry[type[PHDFilter]] = Registry("SMC-PHD filter")
 
 #: Class decorator adding a filter to :data:`PHD_FILTERS` under a name.
 register_phd_filter = PHD_FILTERS.register
+
+
+def write_tracks_csv(path, rows: np.ndarray) -> None:
+    """Rows ``frame, id, x, y`` (:meth:`PHDResult.rows`) as CSV with a header, atomically."""
+    from avtrack.io.base import atomic_write
+
+    with atomic_write(path) as fh:
+        fh.write("frame,id,x,y\n")
+        for f, i, x, y in rows:
+            fh.write(f"{int(f)},{int(i)},{x:.2f},{y:.2f}\n")
