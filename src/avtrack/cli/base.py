@@ -66,6 +66,13 @@ def add_output_option(parser: argparse.ArgumentParser, metavar: str, help: str) 
     parser.add_argument("-o", "--output", type=Path, required=True, metavar=metavar, help=help)
 
 
+def add_clipping_option(parser) -> None:
+    """``--allow-clipping``: the one switch of the audio-input rules
+    (:func:`avtrack.audio.recording.read_array_audio`)."""
+    parser.add_argument("--allow-clipping", action="store_true",
+                        help="accept recordings with clipped samples")
+
+
 def add_array_option(
     parser: argparse.ArgumentParser, required: bool = True, note: str = ""
 ) -> None:

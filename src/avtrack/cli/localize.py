@@ -19,7 +19,7 @@ import numpy as np
 from avtrack.audio.arrays import load_array
 from avtrack.audio.recording import FS, read_array_audio
 from avtrack.cli import progress
-from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.cli.base import add_array_option, add_clipping_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.doa import read_doa_csv, write_doa_csv
@@ -126,9 +126,7 @@ rate than 16 kHz is resampled.""",
         action="store_true",
         help="with --truth: sweep the threshold, print the best MD/FA balance",
     )
-    p.add_argument(
-        "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
-    )
+    add_clipping_option(p)
     add_common(p, run)
 
 

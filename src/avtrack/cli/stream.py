@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.audio.recording import AudioChecks
-from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.cli.base import add_array_option, add_clipping_option, add_command, add_common
 from avtrack.config import build_config, read_config_mapping
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
@@ -83,9 +83,7 @@ per track per frame with bounded latency and memory.""",
         metavar="TRACKS.csv",
         help="write the rows to this file instead of stdout ('-': stdout)",
     )
-    p.add_argument(
-        "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
-    )
+    add_clipping_option(p)
     p.add_argument(
         "--config", type=Path, metavar="FILE.yaml", help="localizer: and tracker: parameters"
     )

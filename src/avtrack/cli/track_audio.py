@@ -19,7 +19,13 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_array_option, add_command, add_common, add_output_option
+from avtrack.cli.base import (
+    add_array_option,
+    add_clipping_option,
+    add_command,
+    add_common,
+    add_output_option,
+)
 from avtrack.config import load_config
 from avtrack.doa.base import (
     DEFAULT_OBSERVATIONS,
@@ -131,9 +137,7 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         help="ground-truth DOA CSV: print MD/FA rates, MAE, identity switches and "
         "OSPA (thesis §5.5.1)",
     )
-    p.add_argument(
-        "--allow-clipping", action="store_true", help="accept recordings with clipped samples"
-    )
+    add_clipping_option(p)
     add_common(p, run)
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_array_option, add_command, add_common
+from avtrack.cli.base import add_array_option, add_clipping_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.camera import read_camera_file
@@ -125,8 +125,7 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
     rec.add_argument("--doa", type=Path, metavar="DOA.csv",
                      help="directions computed elsewhere (DOA CSV) instead of localizing "
                      "--audio")
-    rec.add_argument("--allow-clipping", action="store_true",
-                     help="accept an --audio recording with clipped samples")
+    add_clipping_option(rec)
     rec.add_argument("--fps", type=float, metavar="F",
                      help="video frame rate when there is no --video (default: the video's)")
     av = p.add_argument_group("AV16.3 (SCENE_DIR is a folder of AV16.3 MAT files; with --video)")
