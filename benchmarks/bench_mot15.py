@@ -5,8 +5,8 @@ KITTI-13, PETS09-S2L1, TUD-Campus and Venice-2 (``../shared/data/mot15``) and is
 :func:`avtrack.metrics.evaluate_mot` (MOT15 preprocessing, sequence length and image size from
 ``seqinfo.ini``). Peers run as ``benchmarks/bench_mot.py`` runs them, with their defaults
 (PyPI ``trackers``: SORT, ByteTrack, OC-SORT; Bewley's original SORT, ``sort-tracker-py``).
-avtrack runs with its defaults and with the candidate settings of the default-parameter study
-(``CANDIDATES``). Combined rows: MOTA from FP, FN and IDSW summed over the sequences and divided
+avtrack runs with its defaults (given the frame rate from ``seqinfo.ini``) and with one default
+taken out at a time (``CANDIDATES``). Combined rows: MOTA from FP, FN and IDSW summed over the sequences and divided
 by the summed ground-truth boxes; mean IDF1 and HOTA; "IDF1 (summed)" from the summed identity
 counts (rebuilt from IDR and IDP).
 
@@ -40,16 +40,17 @@ DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "mot15"
 SEQS = ["ADL-Rundle-6", "ETH-Bahnhof", "KITTI-13", "PETS09-S2L1", "TUD-Campus", "Venice-2"]
 PEERS = [("sort-bewley", "SORT (Bewley, original)"), ("sort", "trackers SORT"),
          ("bytetrack", "trackers ByteTrack"), ("ocsort", "trackers OC-SORT")]
-#: label -> OVBTConfig from the sequence's frame rate.
+#: label -> (OVBTConfig, whether the tracker is told the sequence's frame rate). The defaults
+#: get the frame rate (seqinfo.ini), as ``avtrack track-mot`` does; the other rows take one
+#: default out at a time.
 CANDIDATES = {
-    "avtrack defaults": lambda fps: OVBTConfig(),
-    "avtrack min_score 0.9": lambda fps: replace(OVBTConfig(), min_score=0.9),
-    "avtrack study, fixed": lambda fps: replace(
-        OVBTConfig(), min_score=0.88, birth_velocity_std=0.15, death_frames=15,
-        dyn_std_size=0.05),
-    "avtrack study, size noise 0.75/fps": lambda fps: replace(
-        OVBTConfig(), min_score=0.88, birth_velocity_std=0.15, death_frames=15,
-        dyn_std_size=0.75 / fps),
+    "avtrack defaults": (OVBTConfig(), True),
+    "avtrack defaults, frame rate not given": (OVBTConfig(), False),
+    "avtrack defaults, no score split": (replace(OVBTConfig(), birth_score_split=False), True),
+    "avtrack, neither (previous defaults)": (replace(OVBTConfig(), birth_score_split=False),
+                                             False),
+    "avtrack birth_min_score 0.88": (replace(OVBTConfig(), birth_min_score=0.88), True),
+    "avtrack min_score 0.9": (replace(OVBTConfig(), min_score=0.9), True),
 }
 
 
@@ -89,10 +90,10 @@ def main() -> int:
             else:
                 loop, to_mot = bench_mot.peer_runner(key, d["dets"])
             runs[label][s] = row(evaluate_mot(d["gt"], to_mot(loop()), n_frames=d["n"]))
-    for label, make in CANDIDATES.items():
+    for label, (config, with_fps) in CANDIDATES.items():
         runs[label] = {s: row(evaluate_mot(d["gt"], track_mot(
-            d["dets"], None, make(d["fps"]), d["size"], d["n"]), n_frames=d["n"]))
-            for s, d in data.items()}
+            d["dets"], None, config, d["size"], d["n"], d["fps"] if with_fps else None),
+            n_frames=d["n"])) for s, d in data.items()}
     print("| tracker | " + " | ".join(f"{s} ({data[s]['fps']:.0f} fps)" for s in SEQS) + " |")
     print("|---|" + "---|" * len(SEQS))
     for label, rows in runs.items():

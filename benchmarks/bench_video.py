@@ -67,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
             ("detections + video", app, replace(OVBTConfig(), **VIDEO_DEFAULTS)),
         ):
             t1 = time.perf_counter()
-            res = track_mot(dets, appearance, cfg, info.image_size, info.n_frames)
+            res = track_mot(dets, appearance, cfg, info.image_size, info.n_frames, fps)
             t_track = time.perf_counter() - t1
             s = evaluate_mot(gt, res, n_frames=info.n_frames)
             spent = t_track + (t_app if appearance is not None else 0.0)

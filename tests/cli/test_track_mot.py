@@ -109,3 +109,39 @@ def test_demo_prints_scores(shared_data, tmp_path, capsys, monkeypatch):
     assert "MOTA" in out and "IDF1" in out
     assert (tmp_path / "demo" / "TUD-Campus.txt").is_file()
     assert (tmp_path / "demo" / "scores.json").is_file()
+
+
+def test_track_mot_frame_rate_from_seqinfo_and_option(tmp_path, monkeypatch):
+    """--fps, else seqinfo.ini's frameRate, reaches the tracker; a bad --fps is one line."""
+    import avtrack.visual.ovbt as ovbt
+
+    seen = []
+    real = ovbt.track_mot
+
+    def spy(*args, **kwargs):
+        seen.append(args[5] if len(args) > 5 else kwargs.get("fps"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(ovbt, "track_mot", spy)
+    import avtrack.cli.track_mot as cli_mod
+    monkeypatch.setattr(cli_mod, "track_mot", spy)
+    seq = tmp_path / "SEQ"
+    (seq / "det").mkdir(parents=True)
+    _, dets, _ = crossing_scene(1)
+    write_mot(seq / "det" / "det.txt", dets)
+    (seq / "seqinfo.ini").write_text(
+        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\nframeRate=7\n")
+    det = str(seq / "det" / "det.txt")
+    assert main(["track-mot", det, "-o", str(tmp_path / "a.txt"), "-q"]) == 0
+    assert main(["track-mot", det, "-o", str(tmp_path / "b.txt"), "-q", "--fps", "30"]) == 0
+    assert seen == [7, 30.0]
+    assert main(["track-mot", det, "-o", str(tmp_path / "c.txt"), "-q", "--fps", "0"]) == 2
+    assert not (tmp_path / "c.txt").exists()
+
+
+def test_track_mot_birth_min_score_option(det_file, tmp_path):
+    """Every detection below --birth-min-score: nothing can start a track."""
+    out = tmp_path / "res.txt"
+    assert main(["track-mot", str(det_file), "-o", str(out), "--image-size", "640x480", "-q",
+                 "--birth-min-score", "2"]) == 0
+    assert out.read_text() == ""

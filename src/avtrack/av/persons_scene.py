@@ -187,7 +187,7 @@ def track_persons(
     config = config or PersonConfig()
     vcfg = visual_config or config.visual
     t0 = time.perf_counter()
-    vis = track_mot(detections, appearance, vcfg, geometry.image_size, n_frames)
+    vis = track_mot(detections, appearance, vcfg, geometry.image_size, n_frames, fps)
     vis_app = _visual_appearance(vis, detections, appearance, n_frames)
     t1 = time.perf_counter()
     tracker = PersonTracker(geometry, config, fps, fov, azimuth_span_deg)

@@ -359,6 +359,8 @@ class VAVITracker(OVBTracker):
             unassigned = np.arange(len(obs))
         # --- birth (§4.6.2, eq. 4.31) ----------------------------------------------------------
         n_before = eng.n_targets
+        if obs.scores is not None:  # weak detections only update targets (OVBTConfig)
+            unassigned = unassigned[self._can_birth(obs.scores)[unassigned]]
         self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
         if len(self._pool) == vcfg.birth_frames + 1 or (
             vcfg.startup_birth and len(self._pool) == self.frame >= 2
@@ -548,7 +550,7 @@ def track_scene(
     timing = {"duration": sc.n_frames / sc.fps, "features": 0.0, "tracking": 0.0}
     if not use_audio:
         t0 = time.perf_counter()
-        res = track_mot(dets, app, config.visual, sc.image_size, sc.n_frames)
+        res = track_mot(dets, app, config.visual, sc.image_size, sc.n_frames, sc.fps)
         timing["tracking"] = time.perf_counter() - t0
         return AVSceneResult(
             res,

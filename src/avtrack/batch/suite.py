@@ -199,6 +199,7 @@ def _task_track_mot(item: dict) -> dict[str, Any]:
         app = np.load(folder / "appearance.npy")
         params.setdefault("appearance", "cosine")
         bench = "MOT17"
+        fps = cam.get("fps")
     else:
         det = read_mot(folder / "det" / "det.txt", "det")
         gt = read_mot(folder / "gt" / "gt.txt", "gt")
@@ -207,7 +208,9 @@ def _task_track_mot(item: dict) -> dict[str, Any]:
         size = (int(seq["width"]), int(seq["height"])) if "width" in seq else (640, 480)
         app = None
         bench = "MOT15"
-    res = track_mot(det, app, build_config(OVBTConfig, params), image_size=size)
+        fps = seq.get("frame_rate")
+    res = track_mot(det, app, build_config(OVBTConfig, params), image_size=size,
+                    fps=float(fps) if fps else None)
     s = evaluate_mot(gt, res, benchmark=bench).as_dict()
     return {k: s[k] for k in ("MOTA", "MOTP", "IDF1", "HOTA", "FP", "FN", "IDSW")}
 

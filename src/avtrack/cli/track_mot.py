@@ -89,6 +89,14 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                    help="tracker parameters (OVBTConfig fields)")
     p.add_argument("--min-score", type=float, metavar="S",
                    help="drop detections with a lower confidence (overrides --config)")
+    p.add_argument("--birth-min-score", type=float, metavar="S",
+                   help="detections with a lower confidence only update existing tracks, "
+                   "never start one (overrides --config; default: the two-class Otsu split of "
+                   "the scores seen so far, on any detector's score scale)")
+    p.add_argument("--fps", type=float, metavar="F",
+                   help="frame rate of the sequence (default: the video's, else frameRate in "
+                   "seqinfo.ini next to det/, else 25); the per-frame size noise and birth "
+                   "velocity prior scale with 1/fps")
     add_common(p, run)
 
 
@@ -153,7 +161,11 @@ def run(args: argparse.Namespace) -> int:
     from dataclasses import replace
 
     base = replace(OVBTConfig(), **VIDEO_DEFAULTS) if args.video is not None else OVBTConfig
-    config = load_config(args.config, base, overrides={"min_score": args.min_score})
+    config = load_config(args.config, base, overrides={"min_score": args.min_score,
+                                                       "birth_min_score": args.birth_min_score})
+    if args.fps is not None and not (np.isfinite(args.fps) and 0 < args.fps <= 1000):
+        raise InputError(f"--fps must be a frame rate in (0, 1000], got {args.fps}")
+    fps = args.fps
     if args.detections is None and args.video is None:
         raise InputError("give DET.txt, or --video (with --detector) to detect in its frames")
     if args.detections is not None and args.detector is not None:
@@ -171,6 +183,7 @@ def run(args: argparse.Namespace) -> int:
 
         video = probe_video(args.video)
         check_against_video(dets, video, args.detections or args.video)
+        fps = fps or video.fps
         if config.appearance != "bhattacharyya":
             raise InputError("--video gives colour histograms: the config's appearance must be "
                              f"'bhattacharyya', got {config.appearance!r}", args.config)
@@ -180,16 +193,18 @@ def run(args: argparse.Namespace) -> int:
         if args.image_size and parse_image_size(args.image_size) != image_size:
             raise InputError(f"--image-size {args.image_size} differs from the video's "
                              f"{image_size[0]}x{image_size[1]}", args.video)
-    elif args.image_size:
-        image_size = parse_image_size(args.image_size)
     else:
         seqinfo = find_seqinfo(args.detections) if args.detections is not None else None
         info = read_seqinfo(seqinfo) if seqinfo else {}
-        if "width" in info and "height" in info:
+        if args.image_size:
+            image_size = parse_image_size(args.image_size)
+        elif "width" in info and "height" in info:
             image_size = (int(info["width"]), int(info["height"]))
         else:
             image_size = image_size_from_detections(dets)
-        n_frames = info.get("length")
+        if not args.image_size:
+            n_frames = info.get("length")
+        fps = fps or info.get("frame_rate")
     if len(dets) == 0 and not args.quiet:
         print(f"avtrack: warning: {args.detections or 'the detector'} found no detections; "
               f"writing empty results", file=sys.stderr)
@@ -204,7 +219,7 @@ def run(args: argparse.Namespace) -> int:
             appearance = detection_histograms(iter_frames(video.path, video), dets, n)
     try:
         with progress.activity(f"tracking {n} frames", args.quiet):
-            res = track_mot(dets, appearance, config, image_size, n_frames)
+            res = track_mot(dets, appearance, config, image_size, n_frames, fps)
     except ValueError as exc:
         raise InputError(str(exc), args.detections or args.video) from None
     elapsed = time.perf_counter() - t0

@@ -79,11 +79,14 @@ class BoxObservations:
         Diagonal of each observation covariance :math:`\\Phi_{tm}`.
     appearance : ndarray (M, F) or None
         Appearance descriptors, already normalised by the appearance model.
+    scores : ndarray (M,) or None
+        Detection confidences (None: not given); they decide which boxes may start a target.
     """
 
     z: np.ndarray
     var: np.ndarray
     appearance: np.ndarray | None = None
+    scores: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         m = self.z.shape[0]
@@ -93,6 +96,9 @@ class BoxObservations:
         if self.appearance is not None and self.appearance.shape[0] != m:
             raise ValueError(f"BoxObservations: appearance has {self.appearance.shape[0]} rows "
                              f"for {m} boxes")
+        if self.scores is not None and self.scores.shape != (m,):
+            raise ValueError(f"BoxObservations: scores must be ({m},), got "
+                             f"{self.scores.shape}")
 
     def __len__(self) -> int:
         return int(self.z.shape[0])
@@ -119,30 +125,32 @@ class BoxObservations:
         """The rows ``idx`` (an index array or a boolean mask)."""
         idx = np.asarray(idx)
         app = None if self.appearance is None else self.appearance[idx]
+        sc = None if self.scores is None else self.scores[idx]
         if idx.ndim == 1:  # rows of this validated object: no checks needed
-            return _rows(self.z[idx], self.var[idx], app)
-        return BoxObservations(self.z[idx], self.var[idx], app)
+            return _rows(self.z[idx], self.var[idx], app, sc)
+        return BoxObservations(self.z[idx], self.var[idx], app, sc)
 
     def split(self, bounds: Sequence[int]) -> list[BoxObservations]:
         """The frames ``rows bounds[i]:bounds[i + 1]`` of a batch of consecutive frames, with
         their per-frame constants (:attr:`inv_var`, :attr:`information_terms`,
         :attr:`log_normaliser`) already set: rows of the batch's, computed once for all rows
         (they are row-wise, so each frame gets the very numbers it would compute)."""
-        z, var, app = self.z, self.var, self.appearance
+        z, var, app, sc = self.z, self.var, self.appearance, self.scores
         inv_var, terms, log_norm = self.inv_var, self.information_terms, self.log_normaliser
-        return [_rows(z[a:b], var[a:b], None if app is None else app[a:b], inv_var=inv_var[a:b],
+        return [_rows(z[a:b], var[a:b], None if app is None else app[a:b],
+                      None if sc is None else sc[a:b], inv_var=inv_var[a:b],
                       information_terms=terms[a:b], log_normaliser=log_norm[a:b])
                 for a, b in pairwise(bounds)]
 
 
 def _rows(z: np.ndarray, var: np.ndarray, appearance: np.ndarray | None,
-          **constants: np.ndarray) -> BoxObservations:
+          scores: np.ndarray | None = None, **constants: np.ndarray) -> BoxObservations:
     """:class:`BoxObservations` of rows taken from a validated one, without the ``__init__``
     checks (a third of the cost of a frame's observations): the fields, and any per-frame
     constants, are written to the instance dict directly (where ``cached_property`` keeps
     its values)."""
     obs = object.__new__(BoxObservations)
-    obs.__dict__.update(z=z, var=var, appearance=appearance, **constants)
+    obs.__dict__.update(z=z, var=var, appearance=appearance, scores=scores, **constants)
     return obs
 
 

@@ -39,6 +39,7 @@ from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.updates import ones
 from avtrack.vem.visibility import visibility_filter
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
+from avtrack.visual.scores import ScoreSplit
 from avtrack.visual.model import (
     BOX_DIM,
     BoxObservationModel,
@@ -47,6 +48,10 @@ from avtrack.visual.model import (
     ltwh_to_xywh,
     xywh_to_ltwh,
 )
+
+
+#: frame rate (frames/s) at which OVBTConfig's per-frame motion parameters are given
+REFERENCE_FPS = 25.0
 
 
 @dataclass(frozen=True)
@@ -81,6 +86,10 @@ class OVBTConfig:
     visibility_window: int = 2  #: frames summed into the visibility evidence ν
     death_frames: int = 10  #: delete a target invisible this many frames (thesis: 10)
     min_score: float = 0.0  #: drop detections with a lower confidence
+    #: detections below this confidence only update existing targets, never start one
+    #: (None: the running Otsu split of the scores, :mod:`avtrack.visual.scores`)
+    birth_min_score: float | None = None
+    birth_score_split: bool = True  #: use that split when ``birth_min_score`` is None
     appearance: str = "bhattacharyya"  #: "bhattacharyya" (histograms) or "cosine" (embeddings)
     appearance_lambda: float = 10.0  #: λ of eq. 3.5 (or κ for "cosine")
     appearance_update: float = 0.1  #: reference-appearance update rate (0: birth appearance)
@@ -148,14 +157,26 @@ class OVBTracker(ManagedTargets):
     config : OVBTConfig, optional
     image_size : (width, height)
         Sets the clutter density :math:`u(o) = 1/(W H W H)` over box centre and size.
+    fps : float, optional
+        Frame rate of the sequence (None: :data:`REFERENCE_FPS`). The per-frame size noise
+        and birth velocity prior of :class:`OVBTConfig` are given at :data:`REFERENCE_FPS`
+        and scaled by ``REFERENCE_FPS / fps``: a person's size change and displacement per
+        frame grow with the time between frames.
     """
 
     def __init__(self, config: OVBTConfig | None = None, image_size: tuple[int, int] = (
-            1920, 1080)):
+            1920, 1080), fps: float | None = None):
         self.config = config or OVBTConfig()
         w, h = image_size
         if not (w > 0 and h > 0):
             raise ValueError(f"image_size must be positive (width, height), got {image_size}")
+        if fps is not None and not (isinstance(fps, int | float) and np.isfinite(fps)
+                                    and 0 < fps <= 1000):
+            raise ValueError(f"fps must be a frame rate in (0, 1000], got {fps!r}")
+        self.fps = float(REFERENCE_FPS if fps is None else fps)
+        per_frame = REFERENCE_FPS / self.fps
+        self._dyn_std_size = self.config.dyn_std_size * per_frame
+        self._birth_velocity_std = self.config.birth_velocity_std * per_frame
         self.image_size = (float(w), float(h))
         self.log_clutter = -2.0 * np.log(float(w) * float(h))  # u(o): uniform centre and size
         cfg = self.config
@@ -174,20 +195,21 @@ class OVBTracker(ManagedTargets):
         self._init_targets()
         self._pool: deque[BoxObservations] = deque(maxlen=cfg.birth_frames + 1)
         self._has_appearance: bool | None = None
+        self._score_split = ScoreSplit()
         # targets ended lately, for re-identification: id -> (frame, (x, y, w), reference)
         self._ended: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         self.frame = 0
 
     def _dyn_cov(self, mu: np.ndarray) -> np.ndarray:
         c = self.config
-        return box_dynamics_covariance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
+        return box_dynamics_covariance(mu, c.dyn_std_pos, self._dyn_std_size, c.dyn_std_vel)
 
     def _dyn_var(self, mu: np.ndarray) -> np.ndarray:
         c = self.config
-        return box_dynamics_variance(mu, c.dyn_std_pos, c.dyn_std_size, c.dyn_std_vel)
+        return box_dynamics_variance(mu, c.dyn_std_pos, self._dyn_std_size, c.dyn_std_vel)
 
     def _velocity_var(self, z: np.ndarray) -> np.ndarray:
-        return (self.config.birth_velocity_std * np.maximum(z[:, 2:4].copy(), 1.0)) ** 2
+        return (self._birth_velocity_std * np.maximum(z[:, 2:4].copy(), 1.0)) ** 2
 
     def _observations(self, boxes, scores, appearance) -> BoxObservations:
         boxes = np.asarray(boxes, dtype=float).reshape(-1, 4)
@@ -201,7 +223,10 @@ class OVBTracker(ManagedTargets):
             scores = np.asarray(scores, dtype=float).reshape(-1)
             if scores.shape[0] != m:
                 raise ValueError(f"got {scores.shape[0]} scores for {m} boxes")
+            if not np.isfinite(scores).all():
+                raise ValueError("scores must be finite")
             keep = scores >= self.config.min_score
+            scores = scores[keep]
         kept = boxes if np.count_nonzero(keep) == m else boxes[keep]
         app = None
         if appearance is not None:
@@ -221,7 +246,7 @@ class OVBTracker(ManagedTargets):
             raise ValueError("appearance descriptors must be given for every frame or none")
         z = ltwh_to_xywh(kept)
         var = box_observation_variance(z, self.config.obs_std_pos, self.config.obs_std_size)
-        return BoxObservations(z, var, app)
+        return BoxObservations(z, var, app, scores)
 
     def _frame_observations(self, dets: MOTData, appearance: np.ndarray | None,
                             n_frames: int | None) -> list[BoxObservations]:
@@ -294,6 +319,8 @@ class OVBTracker(ManagedTargets):
         else:
             unassigned = np.arange(len(obs))
         # --- birth (eq. 3.30) ----------------------------------------------------------------
+        if obs.scores is not None:  # weak detections only update targets
+            unassigned = unassigned[self._can_birth(obs.scores)[unassigned]]
         self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
         # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far,
         # so that the people present from the first frame are not held back.
@@ -304,6 +331,15 @@ class OVBTracker(ManagedTargets):
             self._first_frame_birth()
         visible = self.p_visible > 0.5
         return eng.ids[visible], eng.mu[visible, :BOX_DIM], self.p_visible[visible]
+
+    def _can_birth(self, scores: np.ndarray) -> np.ndarray:
+        """``(M,)``: which of a frame's detections may start a target (see OVBTConfig)."""
+        cfg = self.config
+        if cfg.birth_min_score is not None:
+            return scores >= cfg.birth_min_score
+        if cfg.birth_score_split:
+            return self._score_split.update(scores)
+        return np.ones(scores.shape[0], dtype=bool)
 
     def _per_target(self) -> tuple[PerTarget, ...]:
         """Visibility posterior, frames invisible in a row, visibility evidence window."""
@@ -395,6 +431,7 @@ def image_size_from_detections(dets: MOTData) -> tuple[int, int]:
 def track_mot(
     dets: MOTData, appearance: np.ndarray | None = None, config: OVBTConfig | None = None,
     image_size: tuple[int, int] | None = None, n_frames: int | None = None,
+    fps: float | None = None,
 ) -> MOTData:
     """Track a whole MOTChallenge detection sequence (batch helper around :class:`OVBTracker`).
 
@@ -409,6 +446,8 @@ def track_mot(
         Defaults to the extent of the detections.
     n_frames : int, optional
         Sequence length (defaults to the last detected frame).
+    fps : float, optional
+        Frame rate (None: :data:`REFERENCE_FPS`; see :class:`OVBTracker`).
 
     Returns
     -------
@@ -420,7 +459,7 @@ def track_mot(
         if appearance.ndim != 2 or appearance.shape[0] != len(dets):
             raise ValueError(f"appearance must have one row per detection ({len(dets)}), got "
                              f"shape {appearance.shape}")
-    tracker = OVBTracker(config, image_size or image_size_from_detections(dets))
+    tracker = OVBTracker(config, image_size or image_size_from_detections(dets), fps)
     ids, boxes, conf = [], [], []
     for obs in tracker._frame_observations(dets, appearance, n_frames):
         out = tracker._step(obs)

@@ -1,0 +1,79 @@
+"""Which detections may start a target: a running two-class split of the detector's scores.
+
+A detector's confidences are on its own scale (a Faster R-CNN's probabilities crowd near 1, a
+HOG SVM gives margins, our simulator's head detector N(0.8, 0.1) for people and N(0.35, 0.15)
+for false alarms), so no fixed threshold suits every detector. Births (thesis eq. 3.30) are
+where false alarms turn into false tracks, so the tracker lets only the detections in the upper
+class of the scores seen so far start a target, as ByteTrack (Zhang et al., ECCV 2022) keeps
+low-score detections for the association only. The split is Otsu's (1979) threshold, the one
+that maximises the between-class variance of the score histogram: no scale, no tuning.
+Detections below it still update the targets they belong to.
+
+Not in the thesis (§3.1 does not use detector scores); measured on the six MOT15 sequences in
+BENCHMARKS.md. NumPy has no Otsu threshold and scikit-image is not a dependency, so it is
+written here (15 lines).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: scores needed before a split is trusted (below: every detection may start a target)
+MIN_SCORES = 50
+#: histogram bins of the split
+BINS = 64
+#: scores kept (the most recent); older ones are dropped
+MAX_KEPT = 20000
+
+
+def otsu_threshold(scores: np.ndarray, bins: int = BINS) -> float | None:
+    """Otsu's threshold of ``scores (N,)``: scores ``>= t`` form the upper class.
+
+    Returns None when the scores do not split (fewer than two distinct values).
+    """
+    x = np.asarray(scores, dtype=float).ravel()
+    x = x[np.isfinite(x)]
+    if x.size < 2:
+        return None
+    lo, hi = float(x.min()), float(x.max())
+    if not hi - lo > 1e-9 * max(1.0, abs(hi)):
+        return None
+    counts, edges = np.histogram(x, bins=bins, range=(lo, hi))
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    w0 = np.cumsum(counts)[:-1].astype(float)  # lower class size for a cut after bin k
+    s0 = np.cumsum(counts * centres)[:-1]
+    n, total = float(counts.sum()), float((counts * centres).sum())
+    w1 = n - w0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        between = w0 * w1 * (s0 / w0 - (total - s0) / w1) ** 2
+    between[(w0 == 0) | (w1 == 0)] = -1.0
+    return float(edges[1:-1][int(np.argmax(between))])
+
+
+class ScoreSplit:
+    """Running Otsu split of the scores seen so far (online: frame ``t`` uses frames ``1..t``).
+
+    The threshold is recomputed every frame for the first 500 scores, then whenever the
+    number of scores seen has grown by 5 % (it moves little once the histogram is full).
+    """
+
+    def __init__(self) -> None:
+        self._chunks: list[np.ndarray] = []
+        self._n = 0  # scores seen
+        self._n_at_split = 0
+        self.threshold: float | None = None
+
+    def update(self, scores: np.ndarray) -> np.ndarray:
+        """Add one frame's ``scores (M,)``; return which of them may start a target ``(M,)``."""
+        scores = np.asarray(scores, dtype=float).reshape(-1)
+        if scores.size:
+            self._chunks.append(scores)
+            self._n += scores.size
+            if self._n >= MIN_SCORES and (self._n < 500 or self._n >= 1.05 * self._n_at_split):
+                kept = np.concatenate(self._chunks)[-MAX_KEPT:]
+                self._chunks = [kept]
+                self.threshold = otsu_threshold(kept)
+                self._n_at_split = self._n
+        if self.threshold is None:
+            return np.ones(scores.shape[0], dtype=bool)
+        return scores >= self.threshold
