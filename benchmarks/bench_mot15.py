@@ -6,9 +6,9 @@ KITTI-13, PETS09-S2L1, TUD-Campus and Venice-2 (``../shared/data/mot15``) and is
 ``seqinfo.ini``). Peers run as ``benchmarks/bench_mot.py`` runs them, with their defaults
 (PyPI ``trackers``: SORT, ByteTrack, OC-SORT; Bewley's original SORT, ``sort-tracker-py``).
 avtrack runs with its defaults (given the frame rate from ``seqinfo.ini``) and with one default
-taken out at a time (``CANDIDATES``). Combined rows: MOTA from FP, FN and IDSW summed over the sequences and divided
-by the summed ground-truth boxes; mean IDF1 and HOTA; "IDF1 (summed)" from the summed identity
-counts (rebuilt from IDR and IDP).
+taken out at a time (``CANDIDATES``). Combined rows: MOTA from FP, FN and IDSW summed over the
+sequences and divided by the summed ground-truth boxes; mean IDF1 and HOTA; "IDF1 (summed)"
+from the summed identity counts (rebuilt from IDR and IDP).
 
 Usage::
 

@@ -59,7 +59,8 @@ def main(argv: list[str] | None = None) -> int:
         fps = float(info_ini.get("frame_rate", 25.0))
         t0 = time.perf_counter()
         info = probe_video(folder / video)
-        app = detection_histograms(iter_frames(info.path, info), dets, info.n_frames)
+        app = detection_histograms(iter_frames(info.path, info), dets, info.n_frames,
+                                   descriptor="person")
         t_app = time.perf_counter() - t0
         duration = info.n_frames / fps
         for label, appearance, cfg in (

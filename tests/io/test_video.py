@@ -8,7 +8,7 @@ import pytest
 from avtrack.errors import InputError
 from avtrack.io.mot import MOTData, write_mot
 from avtrack.io.video import iter_frames, probe_video
-from avtrack.visual.histograms import box_histograms, detection_histograms
+from avtrack.visual.histograms import box_histograms, detection_histograms, person_histograms
 
 
 def write_video(path, n_frames=12, size=(96, 64), fps=10.0):
@@ -66,6 +66,39 @@ def test_box_histograms_hand_case():
     assert red[0, 3] == pytest.approx(1.0)
     assert half[0, 3] == pytest.approx(0.5) and half[4, 3] == pytest.approx(0.5)
     assert np.allclose(outside, 1 / 24)  # no pixel inside: uniform
+
+
+def test_person_histograms_read_the_inner_part_and_tell_black_from_white():
+    """A 20 x 40 box: a 2-px background border on each side (outside 20-80 % of the width),
+    a head strip (top 15 %), black coat, white trousers; another person all in white."""
+    img = np.full((40, 40, 3), 0, np.uint8)
+    img[:, :] = (0, 200, 0)  # green background (hue 60)
+    img[6:22, 4:16] = (0, 0, 0)  # black coat: value bin 0
+    img[22:36, 4:16] = (255, 255, 255)  # white trousers: value bin 3, saturation bin 0
+    img[0:6, 4:16] = (0, 0, 255)  # red head: outside the inner part
+    img[:, 20:40] = (255, 255, 255)  # a person all in white
+    h = person_histograms(img, np.array([[0, 0, 20, 40], [20, 0, 20, 40], [90, 90, 5, 5]]))
+    assert h.shape == (3, 128) and np.allclose(h.sum(axis=1), 1.0)
+    coat, white, outside = h.reshape(3, 8, 4, 4)
+    assert coat[0, 0, 0] == pytest.approx(16 / 30, abs=0.05)  # rows 6-21 of the inner 6-35
+    assert coat[0, 0, 3] == pytest.approx(14 / 30, abs=0.05)
+    assert coat[2].sum() == 0 and coat[0, 3].sum() == 0  # no background green, no red head
+    assert white[0, 0, 3] == pytest.approx(1.0)
+    assert np.allclose(outside, 1 / 128)
+    # the whole-box hue-saturation histogram cannot tell the two apart from their hue
+    hs = box_histograms(img, np.array([[4, 6, 12, 30], [24, 6, 12, 30]]))
+    assert np.allclose(hs[0], hs[1])  # black and white: both hue 0, saturation 0
+
+
+def test_detection_histograms_descriptor_choice(tmp_path):
+    path = tmp_path / "v.avi"
+    write_video(path)
+    dets = MOTData(np.array([1, 5]), -np.ones(2), np.array(
+        [[5.0, 20, 20, 20], [60.0, 45, 20, 15]]), np.ones(2))
+    h = detection_histograms(iter_frames(path), dets, 12, descriptor="person")
+    assert h.shape == (2, 128) and np.allclose(h.sum(axis=1), 1.0)
+    with pytest.raises(ValueError, match="descriptor"):
+        detection_histograms(iter_frames(path), dets, 12, descriptor="sift")
 
 
 def test_detection_histograms_follow_the_frames(tmp_path):

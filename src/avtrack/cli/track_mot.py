@@ -18,11 +18,11 @@ from avtrack.io.datasets import find_seqinfo, read_seqinfo
 from avtrack.io.mot import read_mot, write_mot
 from avtrack.visual.ovbt import OVBTConfig, image_size_from_detections, track_mot
 
-#: OVBTConfig fields that ``--video`` changes (before ``--config``): colour histograms are a
-#: weak cue, so they weigh little in the association (λ of eq. 3.5) and mostly give back the
-#: identity of a target that ended lately. Chosen on TUD-Campus and PETS09-S2L1, the two
-#: shared sequences with video (BENCHMARKS.md).
-VIDEO_DEFAULTS = {"appearance_lambda": 2.0, "reid_log_ratio": 0.2, "reid_max_age": 25,
+#: OVBTConfig fields that ``--video`` changes (before ``--config``): the weight of the person
+#: colour histograms in the association (λ of eq. 3.5; IDF1 gains are flat for λ in 4-10) and
+#: re-identification of a target that ended lately. Chosen on TUD-Campus and PETS09-S2L1, the
+#: two shared sequences with video (BENCHMARKS.md).
+VIDEO_DEFAULTS = {"appearance_lambda": 5.0, "reid_log_ratio": 0.2, "reid_max_age": 25,
                   "reid_max_distance": 4.0}
 
 EXAMPLES = """\
@@ -75,9 +75,10 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                      help="appearance descriptors, one row per detection row (.npy, 2-D)")
     app.add_argument("--video", type=Path, metavar="FILE",
                      help="the sequence's video (mp4, avi, ...; frame k is MOT frame k): "
-                     "colour histograms of the detection boxes become the appearance (thesis "
-                     "eq. 3.5, Bhattacharyya likelihood) and re-identify targets that ended "
-                     "lately (appearance_lambda 2, reid_log_ratio 0.2, reid_max_age 25, "
+                     "colour histograms of the detection boxes (hue-saturation-value, the inner "
+                     "part of each box) become the appearance (thesis eq. 3.5, Bhattacharyya "
+                     "likelihood) and re-identify targets that ended lately "
+                     "(appearance_lambda 5, reid_log_ratio 0.2, reid_max_age 25, "
                      "reid_max_distance 4 unless --config says otherwise); image size and "
                      "length from the video")
     p.add_argument("--detector", metavar="NAME",
@@ -216,7 +217,8 @@ def run(args: argparse.Namespace) -> int:
 
         with progress.activity(f"colour histograms of {len(dets)} boxes in {n} frames",
                                args.quiet):
-            appearance = detection_histograms(iter_frames(video.path, video), dets, n)
+            appearance = detection_histograms(iter_frames(video.path, video), dets, n,
+                                              descriptor="person")
     try:
         with progress.activity(f"tracking {n} frames", args.quiet):
             res = track_mot(dets, appearance, config, image_size, n_frames, fps)

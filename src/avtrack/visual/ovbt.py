@@ -39,7 +39,6 @@ from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.updates import ones
 from avtrack.vem.visibility import visibility_filter
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
-from avtrack.visual.scores import ScoreSplit
 from avtrack.visual.model import (
     BOX_DIM,
     BoxObservationModel,
@@ -48,7 +47,7 @@ from avtrack.visual.model import (
     ltwh_to_xywh,
     xywh_to_ltwh,
 )
-
+from avtrack.visual.scores import ScoreSplit
 
 #: frame rate (frames/s) at which OVBTConfig's per-frame motion parameters are given
 REFERENCE_FPS = 25.0
