@@ -28,7 +28,7 @@ def _load(root, seq):
 def test_defaults_beat_sort_and_bytetrack_over_the_six_sequences(shared_data):
     """Combined MOTA at least the original SORT's 38.0, mean IDF1 at least its 46.1, mean HOTA
     at least ByteTrack's 36.5, all on SORT's detections (peers measured by
-    benchmarks/bench_mot15.py); avtrack 38.3 / 52.4 / 39.2 today."""
+    benchmarks/bench_mot15.py); avtrack 38.3 / 52.5 / 39.3 today."""
     errors = n_gt = 0
     idf1, hota = [], []
     for seq in SEQS:

@@ -36,10 +36,28 @@ def test_split_does_not_depend_on_the_score_scale(seed, scale, shift):
     rng = np.random.default_rng(seed)
     scores = np.r_[rng.normal(0.8, 0.1, 80), rng.normal(0.35, 0.15, 20)]
     t1, t2 = otsu_threshold(scores), otsu_threshold(scale * scores + shift)
+    assert (t1 is None) == (t2 is None)  # the same decision to split or not
+    if t1 is None or t2 is None:
+        return
     upper1 = scores >= t1
     upper2 = scale * scores + shift >= t2
     # the same split up to scores lying within rounding of the threshold
     assert np.count_nonzero(upper1 != upper2) <= 1
+
+
+def test_one_class_of_scores_is_not_split():
+    """A detector whose scores form one bell (no false alarms to tell apart): no threshold,
+    every detection may start a target; the same bell with a cluster of low-scoring false
+    alarms is split between the two."""
+    rng = np.random.default_rng(0)
+    people = np.clip(rng.normal(0.8, 0.1, 3000), 0.5, 1.0)
+    assert otsu_threshold(people) is None
+    with_fa = np.r_[people, np.clip(rng.normal(0.3, 0.08, 300), 0.0, 1.0)]
+    t = otsu_threshold(with_fa)
+    assert t is not None and 0.4 < t < 0.65
+    split = ScoreSplit()
+    for k in range(0, 3000, 10):
+        assert split.update(people[k:k + 10]).all()
 
 
 def test_running_split_lets_every_detection_start_a_target_until_enough_scores():
