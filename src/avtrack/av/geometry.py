@@ -30,7 +30,7 @@ a real recording without any calibration recording (unlike the learned GLLiM map
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -66,6 +66,8 @@ class CameraGeometry:
     camera: PinholeCamera
     array_position: np.ndarray
     array_yaw_deg: float = 0.0
+    #: ``R_z(-ψ)``, room to array axes (set from ``array_yaw_deg``)
+    _to_array: np.ndarray = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.camera, PinholeCamera):

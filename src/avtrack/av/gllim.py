@@ -511,13 +511,11 @@ class AudioImageMapping:
             raise ValueError(
                 f"AudioImageMapping.from_models: models must share (R, P, D), got {sorted(shapes)}"
             )
-        return cls(
-            *(
-                np.stack([getattr(m, n) for m in models])
-                for n in ("pi", "nu", "omega", "lmat", "lvec", "sigma")
-            ),
-            meta or {},
+        pi, nu, omega, lmat, lvec, sigma = (
+            np.stack([getattr(m, n) for m in models])
+            for n in ("pi", "nu", "omega", "lmat", "lvec", "sigma")
         )
+        return cls(pi, nu, omega, lmat, lvec, sigma, meta or {})
 
     def model(self, k: int) -> GLLiM:
         """The GLLiM of sub-band ``k``."""

@@ -618,9 +618,9 @@ class PersonTracker:
                 for k, (_, _, a_old) in self.ended.items():
                     if a_old is None:
                         continue
-                    cos = float(_cosine(app[m][None], a_old[None])[0, 0])
-                    if cos >= best:
-                        best, pid = cos, k
+                    cos_old = float(_cosine(app[m][None], a_old[None])[0, 0])
+                    if cos_old >= best:
+                        best, pid = cos_old, k
                 if pid is not None:  # someone who ended lately, back in view
                     del self.ended[pid]
             out[i] = self._add(
@@ -680,7 +680,9 @@ class PersonTracker:
         unexplained = audio[alpha[:, 0] >= 0.5]
         return speaking, unexplained
 
-    def _merge(self, speaking, seen):
+    def _merge(
+        self, speaking: np.ndarray, seen: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Merge persons that have been closer than ``merge_deg`` for ``merge_frames`` frames
         and are not both seen: the older identity with the seen one's state."""
         c = self.config

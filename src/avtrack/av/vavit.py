@@ -67,7 +67,7 @@ from avtrack.vem.engine import VEMEngine
 from avtrack.vem.targets import PerTarget
 from avtrack.vem.visibility import visibility_filter
 from avtrack.visual.model import BOX_DIM, BoxObservations, xywh_to_ltwh
-from avtrack.visual.ovbt import OVBTConfig, OVBTracker, track_mot
+from avtrack.visual.ovbt import FrameTracks, OVBTConfig, OVBTracker, track_mot
 
 POS_DIM = 2
 
@@ -172,8 +172,9 @@ class VAVITConfig:
 
 
 @dataclass(frozen=True)
-class AVFrameTracks:
-    """Output of one frame.
+class AVFrameTracks(FrameTracks):
+    """Output of one frame: :class:`~avtrack.visual.ovbt.FrameTracks` (the return type of
+    the :meth:`OVBTracker.step` it overrides) with the audio-visual fields.
 
     Attributes
     ----------
@@ -195,7 +196,7 @@ class AVFrameTracks:
 
     ids: np.ndarray
     boxes: np.ndarray
-    p_visible: np.ndarray
+    p_visible: np.ndarray  # (required here: no default, unlike FrameTracks)
     speaking: np.ndarray
     audio_share: np.ndarray
     in_view: np.ndarray
@@ -600,7 +601,10 @@ def track_scene(
     timing["tracking"] = time.perf_counter() - t0
     counts = [len(r.ids) for r in rows]
     frame_no = np.repeat(np.arange(1, len(rows) + 1), counts)
-    cat = (lambda name: np.concatenate([getattr(r, name) for r in rows])) if rows else None
+
+    def cat(name: str) -> np.ndarray:  # (called only when rows is not empty)
+        return np.concatenate([getattr(r, name) for r in rows])
+
     if rows and sum(counts):
         tracks = MOTData(
             frame_no, cat("ids"), np.vstack([r.boxes for r in rows]), cat("p_visible")

@@ -74,7 +74,8 @@ def add_clipping_option(parser) -> None:
 
 
 def add_array_option(
-    parser: argparse.ArgumentParser, required: bool = True, note: str = ""
+    parser: argparse.ArgumentParser | argparse._ArgumentGroup, required: bool = True,
+    note: str = "",
 ) -> None:
     """``--array ARRAY``: a built-in microphone array name or a JSON array file
     (:func:`avtrack.audio.arrays.load_array` reads it)."""

@@ -435,6 +435,7 @@ def run_recording(args: argparse.Namespace) -> int:
         else:
             from avtrack.localize import make_localizer
 
+            assert audio is not None  # (read above: no --doa needs --audio without --no-audio)
             grid = localizer_grid(array)
             loc = make_localizer("dprtf-eg", array, grid)
             with progress.activity(f"localizing {audio.shape[1] / 16000:.1f} s", args.quiet):

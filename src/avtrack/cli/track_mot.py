@@ -7,6 +7,7 @@ import re
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -22,8 +23,8 @@ from avtrack.visual.ovbt import OVBTConfig, image_size_from_detections, track_mo
 #: colour histograms in the association (λ of eq. 3.5; IDF1 gains are flat for λ in 4-10) and
 #: re-identification of a target that ended lately. Chosen on TUD-Campus and PETS09-S2L1, the
 #: two shared sequences with video (BENCHMARKS.md).
-VIDEO_DEFAULTS = {"appearance_lambda": 5.0, "reid_log_ratio": 0.2, "reid_max_age": 25,
-                  "reid_max_distance": 4.0}
+VIDEO_DEFAULTS: dict[str, Any] = {"appearance_lambda": 5.0, "reid_log_ratio": 0.2,
+                                  "reid_max_age": 25, "reid_max_distance": 4.0}
 
 EXAMPLES = """\
 examples:
@@ -204,7 +205,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             image_size = image_size_from_detections(dets)
         if not args.image_size:
-            n_frames = info.get("length")
+            length = info.get("length")  # (an int: read_seqinfo parses it)
+            n_frames = None if length is None else int(length)
         fps = fps or info.get("frame_rate")
     if len(dets) == 0 and not args.quiet:
         print(f"avtrack: warning: {args.detections or 'the detector'} found no detections; "

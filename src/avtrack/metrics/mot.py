@@ -262,12 +262,12 @@ def evaluate_mot(
     if len(gt) and not np.all(np.isfinite(gt.scores)):
         raise ValueError("evaluate_mot: gt column 7 (consider flag) must be finite, found NaN/inf")
     _check_result_classes(res)
-    preproc = benchmark != "MOT15"
-    gt_classes = _gt_classes(gt) if preproc else None
+    # the class of each gt row, where the benchmark has the distractor preprocessing
+    gt_classes = _gt_classes(gt) if benchmark != "MOT15" else None
     distractors = _DISTRACTORS + ((_NON_MOT_VEHICLE,) if benchmark == "MOT20" else ())
 
     gt_keep = np.trunc(gt.scores) != 0  # TrackEval reads the flag with astype(int)
-    if preproc:
+    if gt_classes is not None:
         gt_keep &= gt_classes == _PEDESTRIAN
     gt_ids_t: list[np.ndarray] = []
     res_ids_t: list[np.ndarray] = []
@@ -275,7 +275,7 @@ def evaluate_mot(
     for gs, rs in zip(gt.frame_slices(n_frames), res.frame_slices(n_frames), strict=True):
         sim = box_iou(gt.boxes[gs], res.boxes[rs])
         res_keep = np.ones(rs.stop - rs.start, dtype=bool)
-        if preproc and sim.size:
+        if gt_classes is not None and sim.size:
             res_keep[_distractor_matches(sim, gt_classes[gs], distractors)] = False
         if similarity is not None:
             sim = _custom_similarity(similarity, gt.boxes[gs], res.boxes[rs])

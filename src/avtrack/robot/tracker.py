@@ -446,7 +446,7 @@ class RobotTracker(ManagedTargets):
             self._has_appearance = has
         elif self._has_appearance != has:
             raise ValueError("appearance descriptors must be given for every frame or none")
-        if has:
+        if faces.appearance is not None:
             faces = FaceObservations(
                 faces.positions,
                 faces.sizes,
@@ -476,19 +476,19 @@ class RobotTracker(ManagedTargets):
             raise TypeError(f"motion must be a HeadMotion or None, got {type(motion).__name__}")
         faces = self._check_faces(faces)
         cfg, eng = self.config, self.engine
-        use_control = cfg.control != "none" and motion is not None
+        control_motion = motion if cfg.control != "none" else None  # the motion compensated
         self.frame += 1
-        if use_control and self._pool:
+        if control_motion is not None and self._pool:
             # the birth window in the current camera frame (exact head motion, eq. 3.48)
-            q1 = motion.angles + motion.velocity * self.dt
-            g = self.head.relative_transform(motion.angles, q1)
+            q1 = control_motion.angles + control_motion.velocity * self.dt
+            g = self.head.relative_transform(control_motion.angles, q1)
             self._pool = deque((p.transformed(g) for p in self._pool), maxlen=self._pool.maxlen)
         if eng.n_targets:
             mu_pred = eng.mu @ self.transition.T  # D μ_{t-1}
             control = None
-            if use_control:  # C_tn, eqs. 3.34 and 3.45
+            if control_motion is not None:  # C_tn, eqs. 3.34 and 3.45
                 control = control_vector(
-                    self.head, mu_pred, motion, self.dt, exact=cfg.control == "exact"
+                    self.head, mu_pred, control_motion, self.dt, exact=cfg.control == "exact"
                 )
             self.last_control = np.zeros((eng.n_targets, 3)) if control is None else control[:, :3]
             # E-Z / E-S (eqs. 3.37–3.38) / M

@@ -72,6 +72,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Literal, overload
 
 import numpy as np
 import pyroomacoustics as pra
@@ -308,7 +309,7 @@ class MovingSource:
     @classmethod
     def static(cls, signal: np.ndarray, position: Sequence[float] | np.ndarray) -> MovingSource:
         """A source that does not move."""
-        return cls(signal, [0.0], np.asarray(position, dtype=float).reshape(1, 3))
+        return cls(signal, np.zeros(1), np.asarray(position, dtype=float).reshape(1, 3))
 
     def position_at(self, t: np.ndarray) -> np.ndarray:
         """Positions ``(N, 3)`` at times ``t (N,)`` seconds (held constant outside the knots)."""
@@ -627,6 +628,51 @@ def _rng(rng: np.random.Generator | int) -> np.random.Generator:
     raise ValueError(f"rng must be a numpy Generator or an int seed, got {rng!r}")
 
 
+@overload
+def render(
+    room: Room,
+    array: MicArray,
+    pose: ArrayPose,
+    sources: MovingSource | Sequence[MovingSource],
+    step_m: float = 0.05,
+    *,
+    early_s: float = 0.05,
+    n_samples: int | None = None,
+    rng: np.random.Generator | int = 0,
+    return_images: Literal[False] = False,
+) -> np.ndarray: ...
+
+
+@overload
+def render(
+    room: Room,
+    array: MicArray,
+    pose: ArrayPose,
+    sources: MovingSource | Sequence[MovingSource],
+    step_m: float = 0.05,
+    *,
+    early_s: float = 0.05,
+    n_samples: int | None = None,
+    rng: np.random.Generator | int = 0,
+    return_images: Literal[True],
+) -> tuple[np.ndarray, np.ndarray]: ...
+
+
+@overload
+def render(
+    room: Room,
+    array: MicArray,
+    pose: ArrayPose,
+    sources: MovingSource | Sequence[MovingSource],
+    step_m: float = 0.05,
+    *,
+    early_s: float = 0.05,
+    n_samples: int | None = None,
+    rng: np.random.Generator | int = 0,
+    return_images: bool = False,
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...
+
+
 def render(
     room: Room,
     array: MicArray,
@@ -718,7 +764,7 @@ def room_impulse_response(
     ndarray (n_mics, n_taps)
         Tap ``j`` is time ``j / room.fs`` after emission.
     """
-    src = MovingSource.static([0.0], position)
+    src = MovingSource.static(np.zeros(1), position)
     _check_scene(room, array, pose, [src])
     early_s = _finite_float("room_impulse_response", "early_s", early_s)
     if early_s <= 2 * TAPER_S:

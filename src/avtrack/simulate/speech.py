@@ -498,11 +498,11 @@ def fill_segments(
         if s.speaker > n_s:
             raise ValueError(f"{func}: segment speaker {s.speaker} > n_speakers ({n_s})")
     segs.sort(key=lambda s: (s.speaker, s.start))
-    for a, b in itertools.pairwise(segs):
-        if a.speaker == b.speaker and b.start < a.end:
+    for prev, seg in itertools.pairwise(segs):
+        if prev.speaker == seg.speaker and seg.start < prev.end:
             raise ValueError(
-                f"{func}: segments of speaker {a.speaker} overlap "
-                f"([{a.start:g}, {a.end:g}] and [{b.start:g}, {b.end:g}])"
+                f"{func}: segments of speaker {prev.speaker} overlap "
+                f"([{prev.start:g}, {prev.end:g}] and [{seg.start:g}, {seg.end:g}])"
             )
     material: list[np.ndarray] = []
     for item in utterances:

@@ -21,6 +21,7 @@ import numpy as np
 
 from avtrack.vem.model import DiagonalObservationModel, ObservationModel
 from avtrack.vem.updates import (
+    CVNoise,
     CVStates,
     cv_covariance,
     cv_mean,
@@ -54,12 +55,14 @@ class _Posterior:
     @property
     def mu(self) -> np.ndarray:
         if self._mu is None:
+            assert self.states is not None  # (made with either the arrays or the states)
             self._mu = _read_only(cv_mean(self.states, self.n_vel))
         return self._mu
 
     @property
     def gamma(self) -> np.ndarray:
         if self._gamma is None:
+            assert self.states is not None  # (made with either the arrays or the states)
             self._gamma = _read_only(cv_covariance(self.states, self.n_vel))
         return self._gamma
 
@@ -67,6 +70,7 @@ class _Posterior:
     def variances(self) -> np.ndarray:
         """The diagonal ``(N, d)`` of ``gamma``."""
         if self._gamma is None:
+            assert self.states is not None  # (made with either the arrays or the states)
             return cv_variance(self.states, self.n_vel)
         return self._gamma.diagonal(0, 1, 2)
 
@@ -171,6 +175,9 @@ class VEMEngine:
         self.exclusive = bool(exclusive)
         d = transition.shape[0]
         self._cv = _constant_velocity(transition, self.models, self.dynamics_mstep)
+        # the models of the constant-velocity path (all of them when it applies)
+        self._diagonal_models = tuple(
+            m for m in self.models if isinstance(m, DiagonalObservationModel))
         if self._cv is not None:
             self._cv_off = ~cv_pattern(d, self._cv[0])  # entries a CV Γ or Λ keeps at 0
         self.ids = np.zeros(0, dtype=np.int64)
@@ -253,6 +260,7 @@ class VEMEngine:
         if states is None:
             self.gamma = self.gamma * scale[:, :, None] * scale[:, None, :]  # S Γ S
             return
+        assert self._cv is not None  # (split states only come from the constant-velocity path)
         n_vel, k, _ = self._cv
         s_p = scale[:, :k].copy()  # (contiguous: cheaper products)
         s_v = np.zeros(s_p.shape)
@@ -308,7 +316,8 @@ class VEMEngine:
             if states is not None:
                 lam_states = cv_split(np.zeros((n, d)), lam, self._cv[0])
                 return self._step_cv(observations, states,
-                                     lam_states._replace(mu_p=None, mu_v=None), control)
+                                     CVNoise(None, None, lam_states.var_p,
+                                             lam_states.var_v, lam_states.cov), control)
         return self._step_general(observations, lam, control, None, None)
 
     def _step_general(
@@ -372,21 +381,23 @@ class VEMEngine:
             return None
         return cv_split(post.mu, post.gamma, self._cv[0])
 
-    def _cv_diagonal(self, lam: np.ndarray) -> CVStates:
-        r"""A diagonal ``lam (N, d)`` as the covariances of :class:`CVStates` (``cov`` None:
-        :math:`\Lambda_{pv} = 0`) with no means."""
+    def _cv_diagonal(self, lam: np.ndarray) -> CVNoise:
+        r"""A diagonal ``lam (N, d)`` as :class:`CVNoise` (``cov`` None:
+        :math:`\Lambda_{pv} = 0`) with no control term."""
+        assert self._cv is not None  # (only called on the constant-velocity path)
         n_vel, k, _ = self._cv
         lam_v = np.zeros((lam.shape[0], k))
         lam_v[:, :n_vel] = lam[:, k:]
         # (copies: contiguous operands make the elementwise updates several times cheaper)
-        return CVStates(None, None, lam[:, :k].copy(), lam_v, None)
+        return CVNoise(None, None, lam[:, :k].copy(), lam_v, None)
 
     def _step_cv(
-        self, observations: Sequence[Any], states: CVStates, lam: CVStates,
+        self, observations: Sequence[Any], states: CVStates, lam: CVNoise,
         control: np.ndarray | None,
     ) -> FrameInference:
         """:meth:`step` for constant-velocity states, in the closed forms of ``predict_cv`` and
         ``e_s_step_cv``; ``lam`` holds Λ in the covariance fields."""
+        assert self._cv is not None  # (only called on the constant-velocity path)
         n_vel, k, dt = self._cv
         n = self.n_targets
         if control is not None:  # the control term c_tn of eq. 3.34 joins Λ in the prediction
@@ -406,7 +417,7 @@ class VEMEngine:
         posterior, and the responsibilities and assigned masses of each model."""
         n = pred.mu_p.shape[0]
         post = pred  # E-Z initialisation, thesis §4.6.1
-        pairs = list(zip(self.models, observations, strict=True))
+        pairs = list(zip(self._diagonal_models, observations, strict=True))
         log_priors = [np.full(n + 1, -math.log(n + 1))] * len(pairs)  # η = 1/(N+1)
         resps: list[np.ndarray] = []
         mass: list[np.ndarray] = []
@@ -434,7 +445,7 @@ class VEMEngine:
     ) -> tuple[CVStates, list[np.ndarray], list[np.ndarray]]:
         """:meth:`_iterate_cv` for a single observation model, without the per-model lists
         and loops (whose overhead is some 5% of an OVBT frame); the same updates."""
-        (model,), (obs,) = self.models, observations
+        (model,), (obs,) = self._diagonal_models, observations
         post = pred  # E-Z initialisation, thesis §4.6.1
         log_prior = _uniform_log_prior(pred.mu_p.shape[0] + 1)  # η = 1/(N+1)
         last, exclusive, marginal = self.n_iter - 1, self.exclusive, self.marginal_init
@@ -479,10 +490,11 @@ def _constant_velocity(
     and every model observes the ``k`` leading components with diagonal covariances (the
     pattern :func:`~avtrack.vem.updates.e_s_step_cv` needs); None otherwise. The M step of
     Λ (eq. 2.27) gives full matrices, so it always takes the general path."""
-    if dynamics_mstep or not all(isinstance(m, DiagonalObservationModel) for m in models):
+    diagonal = [m for m in models if isinstance(m, DiagonalObservationModel)]
+    if dynamics_mstep or len(diagonal) != len(models):
         return None
-    k = models[0].observed_dim
-    if any(m.observed_dim != k for m in models):
+    k = diagonal[0].observed_dim
+    if any(m.observed_dim != k for m in diagonal):
         return None
     cv = cv_transition(transition, k)
     return None if cv is None else (cv[0], k, cv[1])

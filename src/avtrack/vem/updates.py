@@ -272,7 +272,9 @@ def _kl_projection(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
             size = float(np.abs(slack).max())
             newton = bool((nu[work] > 0.0).all()) and size < 0.25 * last_size
         last_size = math.inf
-        if newton and _newton_step(alpha, w, z, q, slack, nu, work, nu_max):
+        # (nu_max is set wherever newton is True: the check only narrows its type)
+        if newton and nu_max is not None and _newton_step(alpha, w, z, q, slack, nu, work,
+                                                          nu_max):
             last_size = size
         else:
             for j in work.tolist():  # exact minimisation over each working column in turn
@@ -445,6 +447,20 @@ class CVStates(NamedTuple):
     cov: np.ndarray
 
 
+class CVNoise(NamedTuple):
+    r"""The dynamics covariance :math:`\Lambda_{tn}` of constant-velocity states in the fields
+    of :class:`CVStates` (``var_p``, ``var_v``, ``cov``; ``cov`` None for
+    :math:`\Lambda_{pv} = 0`), and the control term :math:`c_{tn}` of thesis eq. 3.34 in the
+    mean fields (``mu_p``, ``mu_v``; None for no control): the ``lam`` of :func:`predict_cv`.
+    """
+
+    mu_p: np.ndarray | None
+    mu_v: np.ndarray | None
+    var_p: np.ndarray
+    var_v: np.ndarray
+    cov: np.ndarray | None
+
+
 def cv_pattern(dim: int, n_vel: int) -> np.ndarray:
     """``(dim, dim)`` bool mask: True where a constant-velocity covariance may be nonzero."""
     k = dim - n_vel
@@ -526,7 +542,7 @@ def _cv_flat_index(k: int, n_vel: int) -> np.ndarray:
     return np.concatenate([np.arange(d) * (d + 1), p * d + v, v * d + p])
 
 
-def predict_cv(states: CVStates, lam: CVStates, dt: float) -> CVStates:
+def predict_cv(states: CVStates, lam: CVNoise | CVStates, dt: float) -> CVStates:
     r""":func:`predict` (thesis eq. 2.21) of constant-velocity states.
 
     :math:`p_i' = p_i + \Delta t\, v_i`, so :math:`D\Gamma D^\top + \Lambda` has
@@ -538,7 +554,7 @@ def predict_cv(states: CVStates, lam: CVStates, dt: float) -> CVStates:
     ----------
     states : CVStates
         :math:`q(s_{t-1,n})`.
-    lam : CVStates
+    lam : CVNoise or CVStates
         :math:`\Lambda_{tn}` in the covariance fields (``cov`` None for
         :math:`\Lambda_{pv} = 0`); the control term :math:`c_{tn}` of eq. 3.34 in the mean
         fields, or None there for no control.
@@ -562,6 +578,7 @@ def predict_cv(states: CVStates, lam: CVStates, dt: float) -> CVStates:
         cov += lam.cov  # + Λ_pv
     if lam.mu_p is not None:  # + c
         mu_p += lam.mu_p
+    if lam.mu_v is not None:
         mu_v = mu_v + lam.mu_v
     return CVStates(mu_p, mu_v, var_p, var_v + lam.var_v, cov)  # Γ_vv + Λ_vv
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any, Protocol, cast
 
 import numpy as np
 
@@ -64,7 +64,10 @@ class HOGPeopleDetector:
             raise InputError(f"OpenCV {cv2.__version__} has no HOG detector (it left the main "
                              f"package in 5.0): pip install 'opencv-python-headless<5'")
         self.hog = cv2.HOGDescriptor()
-        self.hog.setSVMDetector(cv2.HOGDescriptor_getDefaultPeopleDetector())
+        # (the stubs type the detector as Sequence[float]; it is an ndarray (3781, 1) float32,
+        # the MatLike that setSVMDetector takes)
+        detector = cast(np.ndarray, cv2.HOGDescriptor.getDefaultPeopleDetector())
+        self.hog.setSVMDetector(detector)
         self.upscale = max(1.0, 128.0 / min_height) if min_height > 0 else 1.0
         self.hit_threshold = float(hit_threshold)
         self.scale = float(scale)

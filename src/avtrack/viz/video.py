@@ -46,6 +46,7 @@ from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
 
 if TYPE_CHECKING:
+    from avtrack.av.persons_scene import PersonsResult
     from avtrack.av.vavit import AVSceneResult
     from avtrack.io.scene import SceneInputs
 
@@ -522,7 +523,7 @@ class _Renderer:
                 r = lay.bubble
                 _draw_bubble(img, x1 + r + lay.pad + 2, y0 + r, r, colour, cv2)
         if self.person_rows is not None:
-            self._unseen_persons(img, f, set(ids.tolist()))
+            self._unseen_persons(img, self.person_rows[f - 1], set(ids.tolist()))
         band_h = self._header(img, f)
         if self.legend is not None:  # top left, under the header: clear of player controls
             panel, alpha = self.legend
@@ -530,14 +531,13 @@ class _Renderer:
                    alpha)
         return img
 
-    def _unseen_persons(self, img: np.ndarray, f: int, boxed: set[int]) -> None:
-        """Persons tracked without a box at frame ``f``: a ring at their direction's pixel
-        when it is in the image, else an arrow at the image edge on their side, labelled with
-        their id and azimuth (a speaking bubble when they speak)."""
+    def _unseen_persons(self, img: np.ndarray, rows: slice, boxed: set[int]) -> None:
+        """Persons tracked without a box at one frame (``rows`` of :attr:`persons`): a ring
+        at their direction's pixel when it is in the image, else an arrow at the image edge on
+        their side, labelled with their id and azimuth (a speaking bubble when they speak)."""
         cv2, lay, p = self.cv2, self.lay, self.persons
         width, height = self.size
         font = cv2.FONT_HERSHEY_SIMPLEX
-        rows = self.person_rows[f - 1]
         for k in range(rows.start, rows.stop):
             pid = int(p.ids[k])
             if pid in boxed:
@@ -803,7 +803,7 @@ def render_overlay_video(
     try:
         with _native_stderr_silenced():  # FFmpeg's harmless 'tag ... not supported' notice
             writer = cv2.VideoWriter(
-                str(tmp), cv2.VideoWriter_fourcc(*fourcc), r.fps, r.out_size
+                str(tmp), cv2.VideoWriter.fourcc(*fourcc), r.fps, r.out_size
             )
         if not writer.isOpened():
             raise RuntimeError(
@@ -831,7 +831,7 @@ def render_overlay_video(
 
 def render_scene_video(
     scene: str | Path | SceneInputs,
-    result: AVSceneResult,
+    result: AVSceneResult | PersonsResult,
     path: str | Path,
     *,
     ground_truth: bool = True,
@@ -851,8 +851,10 @@ def render_scene_video(
     ----------
     scene : str, Path or SceneInputs
         The scene directory, or its inputs from :func:`avtrack.io.scene.load_scene`.
-    result : AVSceneResult
-        From :func:`avtrack.av.vavit.track_scene` on that scene.
+    result : AVSceneResult or PersonsResult
+        From :func:`avtrack.av.vavit.track_scene` or
+        :func:`avtrack.av.persons_scene.track_scene_persons` on that scene (with a
+        ``PersonsResult``, the persons tracked without a box are drawn too).
     path : str or Path
         ``.mp4`` or ``.webm`` destination.
     ground_truth : bool
@@ -915,5 +917,5 @@ def render_scene_video(
         legend=legend,
         title=title,
         progress=progress,
-        persons=getattr(result, "persons", None),
+        persons=result.persons if isinstance(result, PersonsResult) else None,
     )
