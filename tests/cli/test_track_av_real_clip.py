@@ -101,3 +101,33 @@ def test_own_recording_on_a_real_clip(shared_data, tmp_path, capsys):
                  % 360 - 180)
     assert np.median(err) < 12.0
     assert (out / "speech.rttm").read_text().strip()
+    # the report: the tracks drawn over the clip's own frames
+    import cv2
+
+    page = (out / "index.html").read_text()
+    assert "tracks.webm" in page or "data:video/webm" in page
+    cap = cv2.VideoCapture(str(out / "tracks.webm"))
+    frames = []
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(frame)
+    cap.release()
+    assert len(frames) == N_FRAMES
+    original = cv2.VideoCapture(str(clip))
+    ok, first = original.read()
+    original.release()
+    assert ok
+    # below the header band the report's frame is the clip's frame (up to coding loss and
+    # the drawn boxes): the mean absolute difference is small against a rendered room's
+    h = first.shape[0]
+    diff = np.abs(frames[0][h // 3:, :first.shape[1]].astype(float) - first[h // 3:].astype(float))
+    assert np.median(diff) < 12.0
+    # --no-report writes none of it
+    out2 = tmp_path / "out2"
+    assert cli_main.main(["track-av", "--video", str(clip), "--audio", str(wav), "--array",
+                          "nao4", "--camera", str(camera), "--detector",
+                          "tests.cli.test_track_av_real_clip:HeadsFromTemplates", "-o",
+                          str(out2), "-q", "--no-report"]) == 0
+    assert not (out2 / "index.html").exists() and not (out2 / "tracks.webm").exists()

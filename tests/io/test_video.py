@@ -142,3 +142,45 @@ def test_shared_real_videos(shared_data):
     assert (tud.n_frames, tud.width, tud.height) == (71, 640, 480)
     first = next(iter_frames(tud.path, tud))
     assert first.shape == (480, 640, 3) and first.std() > 10  # a real image, not blank
+
+
+def test_track_mot_report_draws_over_the_real_frames(tmp_path):
+    """--report DIR: index.html and tracks.webm whose frames are the video's own (grey with
+    the red square), scored against SEQ/gt/gt.txt when the sequence folder has one."""
+    import cv2
+
+    from avtrack.cli.main import main
+
+    seq = tmp_path / "SEQ"
+    (seq / "det").mkdir(parents=True)
+    (seq / "gt").mkdir()
+    path = seq / "v.avi"
+    frames = write_video(path, size=(320, 240))
+    boxes = np.array([[5.0 + 4 * k, 20, 20, 20] for k in range(12)])
+    write_mot(seq / "det" / "det.txt", MOTData(np.arange(1, 13), -np.ones(12), boxes,
+                                               np.ones(12)))
+    (seq / "gt" / "gt.txt").write_text("".join(
+        f"{k + 1},1,{5 + 4 * k},20,20,20,1,1,1\n" for k in range(12)))
+    report = tmp_path / "report"
+    args = ["track-mot", str(seq / "det" / "det.txt"), "-o", str(tmp_path / "res.txt"),
+            "--video", str(path), "-q"]
+    assert main([*args, "--report", str(report)]) == 0
+    page = (report / "index.html").read_text()
+    assert "MOTA" in page and "IDF1" in page
+    cap = cv2.VideoCapture(str(report / "tracks.webm"))
+    got = []
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        got.append(frame)
+    assert len(got) == 12
+    # away from the header band and the legend (top left): the video's own grey, where a
+    # rendered room would have its walls and floor
+    diff = np.abs(got[5][120:, 160:].astype(float) - frames[5][120:, 160:].astype(float))
+    assert np.median(diff) < 10
+    # --report needs --video; an existing report folder needs --force
+    assert main([*args[:4], "--report", str(tmp_path / "r2")]) == 2
+    assert not (tmp_path / "r2").exists()
+    assert main([*args, "--report", str(report)]) == 2
+    assert main([*args, "--report", str(report), "--force"]) == 0

@@ -226,9 +226,11 @@ def apply_config_file(args: argparse.Namespace, settings: Mapping[str, argparse.
 
 
 #: Arguments that name files a command writes.
-OUTPUT_ARGS = ("output", "json", "plot", "markdown")
+OUTPUT_ARGS = ("output", "json", "plot", "markdown", "report")
 #: Commands whose ``--output`` is a folder.
 FOLDER_OUTPUTS = ("track-av", "demo", "simulate", "bench", "robot-sim")
+#: Output options that are folders in every command.
+FOLDER_ARGS = ("report",)
 
 
 def check_outputs(args: argparse.Namespace) -> None:
@@ -248,7 +250,8 @@ def check_outputs(args: argparse.Namespace) -> None:
         out = values.get(name)
         if out is None or str(out) == "-":
             continue
-        folder = name == "output" and getattr(args, "command", None) in FOLDER_OUTPUTS
+        folder = name in FOLDER_ARGS or (
+            name == "output" and getattr(args, "command", None) in FOLDER_OUTPUTS)
         option = "-o" if name == "output" else f"--{name}"
         if out.exists():
             for inp in inputs:

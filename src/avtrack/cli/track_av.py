@@ -59,7 +59,8 @@ image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked 
 frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y empty outside the
 image), OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --no-audio),
 OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
-image --plot).
+image --plot); with --video (a recording of your own, AV16.3), OUT_DIR/index.html and
+OUT_DIR/tracks.webm: the tracks over the video's own frames (--no-report: not written).
 
 A recording of your own (no scene directory): a video, the microphone array's WAV (channel k
 is microphone k of --array) and a camera file, CAMERA.yaml, in the array's frame (metres,
@@ -163,6 +164,11 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
     p.add_argument(
         "--no-audio", action="store_true",
         help="visual-only tracking (OVBT, thesis §3.1); no diarization"
+    )
+    p.add_argument(
+        "--no-report", action="store_true",
+        help="with --video: do not write OUT_DIR/index.html and OUT_DIR/tracks.webm (the "
+        "tracks drawn over the video's own frames, the persons' directions, who speaks when)",
     )
     p.add_argument(
         "--fov-fraction",
@@ -293,6 +299,8 @@ def run_av163(args: argparse.Namespace) -> int:
     res, elapsed = _track_and_write(
         out, f"detecting and tracking {seq.n_frames} frames", args.quiet, True,
         lambda: track_av163(seq, args.video, detector, config=config)[0])
+    if not args.no_report:
+        _av163_report(args, seq, res)
     if not args.quiet:
         duration = seq.n_frames / res.fps
         print(f"AV16.3 seq {args.seq} cam {args.cam}: tracked {seq.n_frames} frames "
@@ -301,6 +309,32 @@ def run_av163(args: argparse.Namespace) -> int:
               f"{len({s.speaker for s in res.speech})} speakers -> {out} ({elapsed:.1f} s, "
               f"real-time factor {elapsed / max(duration, 1e-9):.2f})")
     return 0
+
+
+def _av163_report(args: argparse.Namespace, seq, res) -> None:
+    """index.html of an AV16.3 run: the persons seen in the image against ``posGT``."""
+    from avtrack.io.video import iter_frames, probe_video
+    from avtrack.metrics.ospa import ospa_sequence
+    from avtrack.phd.likelihood import av163_truth
+    from avtrack.viz.recording import write_recording_report
+
+    P = res.persons
+    seen = P.in_view & np.all(np.isfinite(P.pixels), axis=1)
+    est = [P.pixels[seen & (P.frames == f)] for f in seq.frames]
+    ospa = ospa_sequence(est, av163_truth(seq), 50.0, 2)[:, 0]
+    video = probe_video(args.video)
+    with progress.activity(f"drawing the tracks over {video.n_frames} frames", args.quiet):
+        write_recording_report(
+            args.output, f"avtrack: AV16.3 sequence {args.seq}, camera {args.cam}",
+            res.tracks, iter_frames(video.path, video), video.image_size, res.fps,
+            seq.n_frames, speaking=res.speaking, persons=P, speech=res.speech,
+            scores={"OSPA (px)": float(np.mean(ospa)),
+                    "persons": float(len(np.unique(P.ids))),
+                    "speakers": float(len({s.speaker for s in res.speech}))},
+            notes=["OSPA: mean over frames of the OSPA distance (order 2, cut-off 50 px) "
+                   "between the persons reported in the image (persons.csv x, y) and the "
+                   "mouths of the ground truth (posGT, people present per X_true); lower is "
+                   "better"])
 
 
 def run_direction(args: argparse.Namespace) -> int:
@@ -452,6 +486,15 @@ def run_recording(args: argparse.Namespace) -> int:
         out, f"tracking {n_frames} frames", args.quiet, peaks is not None,
         lambda: track_persons(dets, appearance, peaks, geometry, fps, n_frames,
                               visual_config=vcfg, config=config, azimuth_span_deg=span))
+    if video is not None and not args.no_report:
+        from avtrack.io.video import iter_frames
+        from avtrack.viz.recording import write_recording_report
+
+        with progress.activity(f"drawing the tracks over {n_frames} frames", args.quiet):
+            write_recording_report(
+                out, f"avtrack: {args.video.name}", res.tracks, iter_frames(video.path, video),
+                video.image_size, fps, n_frames, speaking=res.speaking, persons=res.persons,
+                speech=res.speech)
     if not args.quiet:
         print(f"tracked {n_frames} frames ({n_frames / fps:.1f} s): "
               f"{len(np.unique(res.persons.ids))} persons, {len(res.tracks)} boxes, "

@@ -40,6 +40,11 @@ examples:
   # own detector as module:attribute), then track
   avtrack track-mot -o res.txt --video TUD-Campus.mp4 --detector hog
 
+  # the same, and a report: the tracks drawn over the video's own frames (index.html,
+  # tracks.webm), scored against SEQ/gt/gt.txt when there is one
+  avtrack track-mot PETS09-S2L1/det/det.txt -o res.txt --video PETS09-S2L1/PETS09-S2L1.avi \
+      --report report/
+
   # explicit image size, appearance embeddings (one row per detection row), own parameters
   avtrack track-mot det.txt -o res.txt --image-size 640x480 --appearance emb.npy \\
       --config ovbt.yaml
@@ -87,6 +92,10 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                    "detector (hog: OpenCV's HOG people detector, the default; haar-face) or "
                    "your own as module:attribute (an object or factory with detect(frame) -> "
                    "(boxes ltwh (M, 4), scores (M,)))")
+    p.add_argument("--report", type=Path, metavar="DIR",
+                   help="with --video: write DIR/index.html and DIR/tracks.webm, the tracks "
+                   "drawn over the video's own frames (with the scores and the ground truth "
+                   "outlined when the sequence folder has gt/gt.txt)")
     p.add_argument("--config", type=Path, metavar="FILE.yaml",
                    help="tracker parameters (OVBTConfig fields)")
     p.add_argument("--min-score", type=float, metavar="S",
@@ -100,6 +109,28 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                    "seqinfo.ini next to det/, else 25); the per-frame size noise and birth "
                    "velocity prior scale with 1/fps")
     add_common(p, run)
+
+
+def _report(args: argparse.Namespace, res, video, n_frames: int) -> None:
+    """``--report DIR``: the tracks over the video's frames, scored when the sequence folder
+    has ``gt/gt.txt`` (MOTChallenge layout: SEQ/det/det.txt, SEQ/gt/gt.txt)."""
+    from avtrack.io.video import iter_frames
+    from avtrack.viz.recording import write_recording_report
+
+    gt, scores = None, {}
+    if args.detections is not None:
+        gt_path = args.detections.resolve().parent.parent / "gt" / "gt.txt"
+        if gt_path.is_file():
+            from avtrack.metrics.mot import evaluate_mot
+
+            gt = read_mot(gt_path, kind="gt")
+            s = evaluate_mot(gt, res, n_frames=n_frames)
+            scores = {"MOTA": s.MOTA, "IDF1": s.IDF1, "HOTA": s.HOTA, "IDSW": float(s.IDSW)}
+            gt = gt if gt.n_frames <= n_frames else None
+    with progress.activity(f"drawing the tracks over {n_frames} frames", args.quiet):
+        write_recording_report(args.report, f"avtrack: {video.path.name}", res,
+                               iter_frames(video.path, video), video.image_size, video.fps,
+                               n_frames, gt=gt, scores=scores)
 
 
 def parse_image_size(text: str) -> tuple[int, int]:
@@ -170,6 +201,8 @@ def run(args: argparse.Namespace) -> int:
     fps = args.fps
     if args.detections is None and args.video is None:
         raise InputError("give DET.txt, or --video (with --detector) to detect in its frames")
+    if args.report is not None and args.video is None:
+        raise InputError("--report draws the tracks over the video's frames: give --video")
     if args.detections is not None and args.detector is not None:
         raise InputError("--detector detects in the frames: give it without DET.txt")
     if args.detections is None:
@@ -228,6 +261,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(str(exc), args.detections or args.video) from None
     elapsed = time.perf_counter() - t0
     write_mot(args.output, res)
+    if args.report is not None and video is not None:
+        _report(args, res, video, n)
     if not args.quiet:
         print(f"tracked {n} frames, {len(np.unique(res.ids))} tracks, {len(res)} boxes "
               f"-> {args.output} ({n / max(elapsed, 1e-9):.0f} frames/s)")

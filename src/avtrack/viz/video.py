@@ -35,7 +35,7 @@ import itertools
 import math
 import os
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -481,16 +481,28 @@ class _Renderer:
         self.gt_rows = None if gt is None else gt.frame_slices(n_frames)
         self.legend = _legend(self.colours, gt is not None, self.lay, cv2) if legend else None
 
-    def frame(self, f: int) -> np.ndarray:
-        """Frame ``f`` (1-based), ``(height, width, 3)`` uint8 BGR."""
+    def frame(self, f: int, background: np.ndarray | None = None) -> np.ndarray:
+        """Frame ``f`` (1-based), ``(height, width, 3)`` uint8 BGR, drawn over ``background``
+        (a real video frame of the image size; None: the rendered room, with the
+        ground-truth people drawn in it)."""
         cv2, lay = self.cv2, self.lay
-        img = self.background.copy()
         width, height = self.size
+        if background is None:
+            img = self.background.copy()
+        else:
+            frame = np.asarray(background)
+            if frame.shape != (height, width, 3) or frame.dtype != np.uint8:
+                raise ValueError(f"frame {f} is {frame.shape} {frame.dtype}, expected "
+                                 f"({height}, {width}, 3) uint8 (the image size)")
+            img = frame if self.out_size == self.size else cv2.copyMakeBorder(
+                frame, 0, height % 2, 0, width % 2, cv2.BORDER_REPLICATE)
+            img = img.copy()
         if self.gt is not None and self.gt_rows is not None:
             rows = self.gt_rows[f - 1]
             boxes = self.gt.boxes[rows]
-            for k in np.argsort(boxes[:, 3], kind="stable"):  # farthest (smallest) first
-                _draw_person(img, boxes[k], cv2)
+            if background is None:  # real frames show the people themselves
+                for k in np.argsort(boxes[:, 3], kind="stable"):  # farthest (smallest) first
+                    _draw_person(img, boxes[k], cv2)
             if self.show_gt_boxes:
                 for box in boxes:
                     x0, y0, x1, y1 = _int_box(box, width, height)
@@ -720,8 +732,10 @@ def render_overlay_video(
     title: str | None = None,
     progress: bool = False,
     persons=None,
+    frames: Iterable[np.ndarray] | None = None,
 ) -> Path:
-    """Write the video of the tracks and their speaking status over the rendered room.
+    """Write the video of the tracks and their speaking status over the rendered room, or
+    over the real video's frames (``frames``).
 
     Parameters
     ----------
@@ -760,6 +774,10 @@ def render_overlay_video(
         Every tracked person every frame (:class:`avtrack.io.persons.PersonsTable`): those
         without a box are drawn as a ring at their direction's pixel, or, out of the image, as
         an arrow at the edge on their side with their azimuth.
+    frames : iterable of ndarray (height, width, 3) uint8, optional
+        The real video's BGR frames ``1, ..., n_frames`` (e.g.
+        :func:`avtrack.io.video.iter_frames`), drawn over instead of the rendered room, one at
+        a time; a video that ends early is an error.
 
     Returns
     -------
@@ -811,10 +829,16 @@ def render_overlay_video(
                 f"(codecs that work with opencv-python-headless: "
                 f"{', '.join(f'{v!r} for {k}' for k, v in VIDEO_CODECS.items())})"
             )
+        source = None if frames is None else iter(frames)
         for f in tqdm(
             range(1, r.n_frames + 1), unit="frame", desc=path.name, disable=not progress
         ):
-            writer.write(r.frame(f))
+            bg = None
+            if source is not None:
+                bg = next(source, None)
+                if bg is None:
+                    raise ValueError(f"the video ended at frame {f - 1} of {r.n_frames}")
+            writer.write(r.frame(f) if bg is None else r.frame(f, bg))
         writer.release()
         writer = None
         if tmp.stat().st_size == 0:
