@@ -35,6 +35,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one core, before NumPy loads BLAS
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -43,8 +44,6 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from avtrack.io.av163 import load_av163  # noqa: E402
-import dataclasses  # noqa: E402
-
 from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
 from avtrack.phd import PHD_FILTERS, PHDConfig  # noqa: E402
 from avtrack.phd.likelihood import (  # noqa: E402
