@@ -56,7 +56,8 @@ Output rows: frame,id,x,y (image pixels of the mouth; id -1 when the filter give
 The --config YAML holds PHDConfig fields, e.g.:
   particles_per_target: 50
   sigma_visual: 4.0
-  flow_weights: transition
+  flow_weights: proposal
+  coast_frames: 0
 """
 
 

@@ -1,33 +1,35 @@
 """AV-LPF-SMC-PHD: the labelled non-zero particle flow SMC-PHD filter (Liu et al. §3, Alg. 1).
 
-Every particle carries an audio label ``l_ring`` and a visual label ``l_breve`` — the
-measurement it is associated with, 0 for none — instead of a cluster:
+Every particle carries a *track label* (the birth it descends from) and, on each frame, the
+fused measurement its label is associated with — its audio label ``l_ring`` and visual label
+``l_breve`` are the two parts ``(o_r, u_r)`` of that measurement — instead of a cluster. With
+the default ``flow_weights="proposal"``:
 
-- births are labelled with the measurement they are drawn from (eq. 13);
-- a surviving particle takes the best measurement within the gate (eqs. 15–16: the argmax of
-  the product of the audio and visual kernels, eq. 21), each of its two labels kept with
-  probability ``p_D`` of that modality (the random ``r(1) < p_D`` of eq. 17);
-- the covariance ``P_{k|k-1}`` of a particle is the weighted covariance of the predicted
-  particles with the same two labels (eqs. 18–20), plus the process noise ``Q`` (a floor for
-  labels held by a single particle);
-- the flow (eqs. 6–9) uses the particle's own likelihood (eq. 21), the product of its labelled
-  kernels: quadratic in the state, so the flow is affine and shared by all particles with the
-  same labels (one 4×4 inverse per label and step, :func:`~avtrack.phd.flow.affine_flow`);
-- weights follow eqs. 22–23, with the flow's proposal factor (Jacobian determinant and
-  density ratio) chosen by :attr:`PHDConfig.flow_weights` (default: the transition-density
-  ratio written in eq. 22);
-- the speakers are the measurements whose labelled particles weigh at least ``xi`` (0.5), at
-  their particles' weighted mean (eqs. 24–25). No clustering anywhere.
+- each label takes at most one fused measurement and each measurement at most one label
+  (eqs. 15–16 per label: an assignment maximising ``sum log(G_lr / kappa_r)`` over the
+  pairs where the label explains the measurement better than clutter, ``G_lr`` = eq. 12 over
+  the label's gated predicted particles, :meth:`LPFSMCPHD._associate`); a particle is
+  labelled with its label's measurement when it is within its gate;
+- births (eq. 13) come from visual measurements that no label takes, join the PHD after the
+  frame's update (:mod:`~avtrack.phd.smc_phd`), and take the label of a confirmed label
+  without a measurement, or of a recently dropped one, found near them (the older label is
+  kept);
+- the flow (eqs. 6–9) uses the label's likelihood (eq. 21, Gaussian in the position: the flow
+  is affine) with the particle's transition covariance ``Q`` as the prior of eq. 9
+  (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance), composed into one
+  Gaussian map per label (:func:`~avtrack.phd.flow.affine_flow_map`);
+- weights follow eqs. 22–23 with density likelihoods and clutter intensities
+  (:func:`~avtrack.phd.smc_phd.measurement_model`) and the importance weight of the flow
+  actually run, ``phi(m_k | m_{k-1}) / q(m_k | m_{k-1})``;
+- a speaker is a label whose weight on its measurement (eq. 25) is at least ``xi``, at its
+  particles' weighted mean (eq. 24); each label is resampled on its own. No clustering.
 
-Labels refer to the fused measurements of :func:`~avtrack.phd.likelihood.pair_measurements`:
-the audio and visual labels of a particle are the two parts ``(o_r, u_r)`` of one fused
-measurement ``r`` (or one of them, or none, after the ``p_D`` draw). Deviations from the
-seed's text, each needed to keep a speaker from being counted twice or the weights from being
-unbounded: the normaliser ``G`` of eq. 23 sums over all particles labelled with a part of the
-same fused measurement (not only those with both labels equal), the label-(0, 0) weight of
-eq. 22 keeps the factor ``w_{k|k-1}`` of eq. 11, and eqs. 24–25 use the updated weights and
-states. Reported speakers carry the identity of the birth that most of their weight descends
-from.
+The legacy ``flow_weights`` ("transition", "gaussian", "none") keep the seed's per-particle
+labels with eq. 17's random ``p_D`` drop, eqs. 18–20's covariance, peak-1 kernels with the
+seed's ``kappa`` and eq. 22's factor as printed (not an importance weight when
+``diffusion > 0``). Deviations there, as before: the normaliser ``G`` of eq. 23 sums over all
+particles labelled with a part of the same fused measurement, and the label-(0, 0) weight of
+eq. 22 keeps the factor ``w_{k|k-1}`` of eq. 11.
 """
 
 from __future__ import annotations

@@ -10,11 +10,16 @@ baseline of ref. [9]).
   are not pulled); its Hessian is the Gauss–Newton one (:func:`~avtrack.phd.flow.mixture_flow`),
   one 4×4 inverse per particle and step.
 - The weights follow the PHD update of eqs. 11–12 over the fused measurements, the likelihood
-  of a measurement being the product of the kernels of its parts (as eq. 21: the weighted
+  of a measurement being the product of the densities of its parts (as eq. 21: the weighted
   mean of eq. 10 would give every particle on a DOA line half the weight of a particle on the
-  speaker), times the flow's proposal factor of eq. 22 as configured by
-  ``PHDConfig.flow_weights`` (the same for both filters); ``p_D`` of a fused measurement is
-  that of its parts, the missed-detection term ``(1 - p_ring)(1 - p_breve)``.
+  speaker) with ``p_D`` and ``kappa`` of :func:`~avtrack.phd.smc_phd.measurement_model`,
+  times the flow's proposal factor of eq. 22 as configured by ``PHDConfig.flow_weights``
+  (the same for both filters). Under the default ``"proposal"`` the flow is deterministic
+  (``diffusion`` is not used: the stochastic per-particle flow has no tractable density) and
+  eq. 22's factor uses the exact Jacobian of the flow, so it is an importance weight; the
+  flow's mixture keeps the seed's background ``kappa`` (peak-1 kernels) as its floor. The
+  legacy settings keep peak-1 kernels and the seed's ``kappa`` in the weights too, and update
+  their births on the frame they are drawn.
 - Speakers are the centroids of a weighted k-means of the updated particles into
   ``round(sum w_k)`` clusters, weighted by their cluster masses (§2). Identities: none (-1).
 """
