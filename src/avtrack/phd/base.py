@@ -172,8 +172,6 @@ class PHDConfig:
     image_size: tuple[int, int] = IMAGE_SIZE
 
     def __post_init__(self) -> None:
-        if self.diffusion is None:
-            object.__setattr__(self, "diffusion", 1.0 if self.flow_weights == "proposal" else 0.3)
         for name in ("particles_per_target", "n_birth", "flow_steps"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
@@ -199,8 +197,12 @@ class PHDConfig:
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"PHDConfig: {name} must be a finite number > 0, got {v!r}")
-        for name in ("weight_audio", "weight_visual", "diffusion", "relabel_distance",
-                     "relink_speed"):
+        if self.diffusion is not None and not (np.isfinite(self.diffusion)
+                                               and self.diffusion >= 0):
+            raise ValueError(
+                f"PHDConfig: diffusion must be a finite number >= 0, got {self.diffusion!r}"
+            )
+        for name in ("weight_audio", "weight_visual", "relabel_distance", "relink_speed"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"PHDConfig: {name} must be a finite number >= 0, got {v!r}")
@@ -230,8 +232,11 @@ class PHDConfig:
 
     @property
     def v(self) -> float:
-        """``diffusion`` resolved (``v`` of eq. 7)."""
-        return float(self.diffusion if self.diffusion is not None else 0.0)
+        """``v`` of eq. 7: ``diffusion``, or when it is None 1 with ``"proposal"`` weights and
+        0.3 with the legacy ones."""
+        if self.diffusion is not None:
+            return float(self.diffusion)
+        return 1.0 if self.flow_weights == "proposal" else 0.3
 
 
 @dataclass(frozen=True)
