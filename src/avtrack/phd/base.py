@@ -109,8 +109,8 @@ class PHDConfig:
         Gaussian likelihood, and the ``"proposal"`` weight is that posterior's normaliser (the
         optimal proposal). With the label's covariance the flow moves each particle by the
         label-wide Kalman gain, far more than its own transition noise allows, and the
-        importance weights spread (on sequence 45 camera 1, 400 frames: ESS 20 and 288
-        resamplings against 40 and 149).
+        importance weights spread (sequence 45 camera 1, first 400 frames, seed 0: ESS 32
+        and 217 resamplings with ``diffusion`` 1, 21 and 283 with 0.3, against 42 and 131).
     coast_frames : int
         A confirmed speaker (label weight once ``>= xi``) is still reported, at its particles'
         mean, for up to this many frames in which its weight stays below ``xi`` (missed
