@@ -165,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     for item in args.set:
         k, v = item.split("=", 1)
         cur = getattr(config, k)
-        over[k] = int(v) if isinstance(cur, int) else float(v)
+        over[k] = v if isinstance(cur, str) else int(v) if isinstance(cur, int) else float(v)
     if args.clutter_rate:
         over.setdefault("clutter_visual", config.clutter_visual + args.clutter_rate)
         over.setdefault("clutter_audio", config.clutter_audio + args.clutter_rate)
