@@ -12,7 +12,9 @@ limited to one thread, on the six sequence / camera pairs of ``../shared/data/av
   seed. For a given seed both filters see identical measurements.
 
 Scores: OSPA (order 2, cut-off 50 px, Euclidean in pixels) against ``posGT`` on every frame,
-averaged over the frames of a sequence, then over the seeds (Table 1); the mean effective
+averaged over the frames of a sequence, then over the seeds (Table 1), beside OSPA-T (order 2,
+cut-off 65 px, label penalty 25 px, :func:`avtrack.metrics.ospa.ospa_t`) and the number of
+distinct track labels per true person; the mean effective
 sample size, the number of resamplings and the running time of the filter steps (Table 2, for
 sequence 45 camera 1 as in the seed, plus the means over the six pairs).
 
@@ -25,6 +27,8 @@ Usage::
     python benchmarks/bench_phd.py --seeds 2 --pairs 45:1 24:1
     python benchmarks/bench_phd.py --flow-weights none  # weights without eq. 22's flow factor
     python benchmarks/bench_phd.py --vem
+    python benchmarks/bench_phd.py --vem --clutter-rate 0.5  # + false alarms, DOA outliers
+    python benchmarks/bench_phd.py --set coast_frames=6 birth_mass=0.1  # PHDConfig fields
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one core, before NumPy loads BLAS
 
 import argparse  # noqa: E402
+import dataclasses  # noqa: E402
 import platform  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -43,18 +48,51 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from avtrack.io.av163 import load_av163  # noqa: E402
-from avtrack.metrics.ospa import ospa_sequence  # noqa: E402
+from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
 from avtrack.phd import PHD_FILTERS, PHDConfig  # noqa: E402
-from avtrack.phd.likelihood import av163_frames, av163_truth, av163_visual  # noqa: E402
+from avtrack.phd.likelihood import (  # noqa: E402
+    add_clutter,
+    av163_frames,
+    av163_truth,
+    av163_visual,
+)
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 PAIRS = [(24, 1), (24, 2), (24, 3), (45, 1), (45, 2), (45, 3)]
 CUTOFF = 50.0
 ORDER = 2
+#: OSPA-T as the SMC-PHD authors' released evaluation: order 2, cut-off 65 px, penalty 25 px.
+T_CUTOFF, T_PENALTY = 65.0, 25.0
+
+
+def labelled_truth(seq) -> list[np.ndarray]:
+    """True tracks per frame for OSPA-T: ``(P, 2)`` with NaN rows for absent persons."""
+    return [np.where(seq.present[t][:, None], seq.positions[:, t], np.nan)
+            for t in range(seq.n_frames)]
+
+
+def scores(ids_pos: list[tuple[np.ndarray, np.ndarray]], seq) -> tuple[float, float, float]:
+    """OSPA (50 px), OSPA-T (65 px, 25 px) and distinct labels per true person; estimates
+    without identity (id < 0) are each a track of their own."""
+    nxt = max((int(i.max()) for i, _ in ids_pos if len(i)), default=0) + 1
+    est = []
+    for ids, pos in ids_pos:
+        ids = np.asarray(ids, dtype=np.int64).copy()
+        neg = ids < 0
+        ids[neg] = nxt + np.arange(int(neg.sum()))
+        nxt += int(neg.sum())
+        est.append((ids, pos))
+    o = ospa_sequence([p for _, p in ids_pos], av163_truth(seq), CUTOFF, ORDER)[:, 0].mean()
+    ot = ospa_t(est, labelled_truth(seq), T_CUTOFF, ORDER, T_PENALTY).mean
+    n_labels = len({int(i) for ids, _ in est for i in ids})
+    persons = int(np.sum(seq.present.any(axis=0)))
+    return float(o), float(ot), n_labels / max(persons, 1)
 FACE_BOX = (18.0, 25.0)  # median face box of seq45 cam1 (w, h), for the VEM row
 
 
-def run_vem(visual: list[np.ndarray], n_frames: int) -> tuple[list[np.ndarray], float]:
+def run_vem(
+    visual: list[np.ndarray], n_frames: int
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], float]:
     """The OVBT visual VEM tracker on fixed-size boxes around the visual points."""
     from avtrack.visual.ovbt import OVBTracker
 
@@ -71,8 +109,10 @@ def run_vem(visual: list[np.ndarray], n_frames: int) -> tuple[list[np.ndarray], 
             if len(z)
             else np.zeros((0, 4))
         )
-        b = np.asarray(tracker.step(boxes, np.ones(len(z))).boxes, dtype=float).reshape(-1, 4)
-        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + 0.8 * b[:, 3]]))
+        res = tracker.step(boxes, np.ones(len(z)))
+        b = np.asarray(res.boxes, dtype=float).reshape(-1, 4)
+        out.append((np.asarray(res.ids, dtype=np.int64),
+                    np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + 0.8 * b[:, 3]])))
     return out, time.perf_counter() - t0
 
 
@@ -95,11 +135,25 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--filters", default="lpf,npf", help="comma-separated filter names")
     ap.add_argument(
         "--flow-weights",
-        default="transition",
-        choices=("transition", "gaussian", "none"),
-        help="PHDConfig.flow_weights, for both filters (default: eq. 22)",
+        default="proposal",
+        choices=("proposal", "transition", "gaussian", "none"),
+        help="PHDConfig.flow_weights, for both filters (default: the flow's importance weight)",
     )
     ap.add_argument("--vem", action="store_true", help="add the visual VEM (OVBT) row")
+    ap.add_argument(
+        "--clutter-rate",
+        type=float,
+        default=0.0,
+        help="synthetic visual false alarms per frame, plus as many DOA outliers (uniform "
+        "azimuth) per frame; the filters' clutter_visual / clutter_audio grow by the same rate",
+    )
+    ap.add_argument(
+        "--set",
+        nargs="*",
+        default=[],
+        metavar="FIELD=VALUE",
+        help="PHDConfig fields (numbers), e.g. coast_frames=20 diffusion=0",
+    )
     args = ap.parse_args(argv)
     if not args.data.is_dir():
         print(f"bench_phd: AV16.3 folder not found: {args.data}", file=sys.stderr)
@@ -107,6 +161,15 @@ def main(argv: list[str] | None = None) -> int:
     pairs = PAIRS if not args.pairs else [tuple(map(int, p.split(":"))) for p in args.pairs]
     names = args.filters.split(",")
     config = PHDConfig(flow_weights=args.flow_weights)
+    over = {}
+    for item in args.set:
+        k, v = item.split("=", 1)
+        cur = getattr(config, k)
+        over[k] = v if isinstance(cur, str) else int(v) if isinstance(cur, int) else float(v)
+    if args.clutter_rate:
+        over.setdefault("clutter_visual", config.clutter_visual + args.clutter_rate)
+        over.setdefault("clutter_audio", config.clutter_audio + args.clutter_rate)
+    config = dataclasses.replace(config, **over)
 
     # results[name][(seq, cam)] = list of (ospa, ess, resamplings, time) per seed
     results: dict[str, dict[tuple[int, int], list[tuple[float, ...]]]] = {
@@ -115,20 +178,25 @@ def main(argv: list[str] | None = None) -> int:
     sources = {}
     for seq_no, cam in pairs:
         seq = load_av163(args.data, seq_no, cam)
-        truth = av163_truth(seq)
+
         for s in range(args.seeds):
             visual, sources[seq_no, cam] = av163_visual(
                 args.data, seq, rng=np.random.default_rng([s, seq_no, cam])
             )
-            frames = av163_frames(seq, visual, config.sigma_audio, config.gate)
+            doa = list(seq.z_doa)
+            if args.clutter_rate:
+                visual, doa = add_clutter(visual, doa, args.clutter_rate, args.clutter_rate,
+                                          np.random.default_rng([s, seq_no, cam, 7]))
+            frames = av163_frames(seq, visual, config.sigma_audio, config.gate, doa_deg=doa)
             for name in names:
                 res = PHD_FILTERS[name](config, seed=s).run(frames)
-                o = ospa_sequence(res.positions(), truth, CUTOFF, ORDER)[:, 0].mean()
-                results[name][seq_no, cam].append((o, res.mean_ess, res.n_resamplings, res.time_s))
-            if args.vem and (s == 0 or sources[seq_no, cam] == "synthetic"):
-                pos, t = run_vem(visual, seq.n_frames)
-                o = ospa_sequence(pos, truth, CUTOFF, ORDER)[:, 0].mean()
-                results["vem"][seq_no, cam].append((o, np.nan, np.nan, t))
+                o, ot, lab = scores([(e.ids, e.positions) for e in res.estimates], seq)
+                results[name][seq_no, cam].append(
+                    (o, res.mean_ess, res.n_resamplings, res.time_s, ot, lab))
+            if args.vem and (s == 0 or sources[seq_no, cam] == "synthetic" or args.clutter_rate):
+                est, t = run_vem(visual, seq.n_frames)
+                o, ot, lab = scores(est, seq)
+                results["vem"][seq_no, cam].append((o, np.nan, np.nan, t, ot, lab))
             print(
                 f"# {seq_no} ({cam}) seed {s}: "
                 + ", ".join(
@@ -145,27 +213,42 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"Machine: {platform.processor() or platform.machine()}, Python "
         f"{platform.python_version()}, NumPy {np.__version__}, one BLAS thread; "
-        f"{args.seeds} seeds; OSPA order {ORDER}, cut-off {CUTOFF:g} px; "
+        f"{args.seeds} seeds; OSPA order {ORDER}, cut-off {CUTOFF:g} px; OSPA-T order "
+        f"{ORDER}, cut-off {T_CUTOFF:g} px, label penalty {T_PENALTY:g} px; "
+        f"clutter rate {args.clutter_rate:g}/frame; config overrides {over}; "
         f"flow_weights={config.flow_weights!r}\n"
     )
-    print("Table 1 — OSPA (px), mean over frames and seeds\n")
+    print("Table 1 — OSPA / OSPA-T (px) / labels per true person, mean over frames and seeds\n")
     print("| Seq (Cam) | visual | " + " | ".join(label[c] for c in cols) + " |")
     print("|---|---|" + "---|" * len(cols))
     means = {c: [] for c in cols}
+    t_means = {c: [] for c in cols}
+    l_means = {c: [] for c in cols}
     for p in pairs:
         row = []
         for c in cols:
             v = np.mean([r[0] for r in results[c][p]])
+            vt = np.mean([r[4] for r in results[c][p]])
+            lab = np.mean([r[5] for r in results[c][p]])
             means[c].append(v)
-            row.append(f"{v:.2f}")
+            t_means[c].append(vt)
+            l_means[c].append(lab)
+            row.append(f"{v:.2f} / {vt:.2f} / {lab:.1f}")
         print(f"| {p[0]} ({p[1]}) | {sources[p]} | " + " | ".join(row) + " |")
-    print("| Avg. OSPA | | " + " | ".join(f"{np.mean(means[c]):.2f}" for c in cols) + " |")
+    print("| Average | | " + " | ".join(
+        f"{np.mean(means[c]):.2f} / {np.mean(t_means[c]):.2f} / {np.mean(l_means[c]):.1f}"
+        for c in cols) + " |")
     if "lpf" in cols and "npf" in cols:
         print(f"\nLPF / NPF average OSPA: {np.mean(means['lpf']) / np.mean(means['npf']):.3f}")
 
     print("\nTable 2 — ESS, resamplings, running time (s), mean over seeds\n")
     print("| Filter | pair | ESS | Resampling | Time (s) | frames |")
     print("|---|---|---|---|---|---|")
+    for c in [c for c in cols if c != "vem"]:
+        for p in pairs:
+            r = np.array(results[c][p], dtype=float)
+            print(f"| {label[c]} | {p[0]} ({p[1]}) | {r[:, 1].mean():.1f} | {r[:, 2].mean():.1f} "
+                  f"| {r[:, 3].mean():.2f} | {load_av163(args.data, *p).n_frames} |")
     n_frames = {p: load_av163(args.data, *p).n_frames for p in pairs}
 
     def fmt(v: float, digits: int) -> str:

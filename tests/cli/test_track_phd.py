@@ -135,3 +135,17 @@ def test_video_that_does_not_fit_the_sequence(main, small, tmp_path, capsys, vid
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and message in err
     assert not out.exists()
+
+
+def test_clutter_rate(main, small, tmp_path, capsys):
+    out = tmp_path / "c.csv"
+    rc = main(["track-phd", str(small), "--seq", "7", "--cam", "2", "--clutter-rate", "0.5",
+               "-o", str(out)])  # fmt: skip
+    assert rc == 0 and out.is_file()
+    msg = capsys.readouterr().out
+    assert "visual synthetic + 0.5 false alarms/frame; OSPA" in msg
+    assert "ESS" in msg and "resamplings" in msg
+    for bad in ("-1", "nan"):
+        assert main(["track-phd", str(small), "--seq", "7", "--cam", "2", "--clutter-rate", bad,
+                     "-o", str(tmp_path / "x.csv")]) == 2  # fmt: skip
+        assert "--clutter-rate must be a number in [0, 100]" in capsys.readouterr().err

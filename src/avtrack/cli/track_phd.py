@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from pathlib import Path
 
@@ -19,6 +20,7 @@ from avtrack.phd import PHD_FILTERS, PHDConfig, PHDResult
 from avtrack.phd.base import write_tracks_csv
 from avtrack.phd.likelihood import (
     VISUAL_SOURCES,
+    add_clutter,
     av163_frames,
     av163_truth,
     av163_visual,
@@ -40,6 +42,9 @@ examples:
   # the clustering baseline, another seed, synthetic face detections, with a figure
   avtrack track-phd av16.3/ --seq 24 --cam 2 --filter npf --seed 3 -o npf.csv --plot npf.png
 
+  # clutter stress test: 0.5 visual false alarms and 0.5 DOA outliers per frame
+  avtrack track-phd av16.3/ --seq 24 --cam 1 --clutter-rate 0.5 -o lpf_clutter.csv
+
   # from the real video: colour-histogram measurements with the hist_temp templates
   avtrack track-phd av16.3/ --seq 30 --cam 1 \
       --video av16.3/seq30-2p-1101_cam1_divx_audio.avi -o lpf30.csv
@@ -51,7 +56,8 @@ Output rows: frame,id,x,y (image pixels of the mouth; id -1 when the filter give
 The --config YAML holds PHDConfig fields, e.g.:
   particles_per_target: 50
   sigma_visual: 4.0
-  flow_weights: transition
+  flow_weights: proposal
+  coast_frames: 0
 """
 
 
@@ -95,6 +101,15 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "against the hist_temp_16bins templates, foreground windows only) instead of "
         "face detections",
     )
+    p.add_argument(
+        "--clutter-rate",
+        type=float,
+        default=0.0,
+        metavar="PER_FRAME",
+        help="clutter stress test: add synthetic visual false alarms (uniform over the image) "
+        "and as many DOA outliers (uniform azimuth), this many per frame each (Poisson); the "
+        "filter's clutter_visual and clutter_audio grow by the same rate (default 0)",
+    )
     p.add_argument("--config", type=Path, metavar="FILE.yaml", help="PHDConfig fields")
     add_output_option(p, "TRACKS.csv", "output CSV (written atomically)")
     p.add_argument(
@@ -128,6 +143,8 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("AV16.3 folder not found", args.folder)
     if args.seq < 1:
         raise InputError(f"--seq must be a positive integer, got {args.seq}")
+    if not (np.isfinite(args.clutter_rate) and 0 <= args.clutter_rate <= 100):
+        raise InputError(f"--clutter-rate must be a number in [0, 100], got {args.clutter_rate}")
     seq = load_av163(args.folder, args.seq, args.cam)
     rng = np.random.default_rng([args.seed, args.seq, args.cam])
     if args.video is not None:
@@ -137,7 +154,16 @@ def run(args: argparse.Namespace) -> int:
         visual, used = video_measurements(args.video, seq), "video colour templates"
     else:
         visual, used = av163_visual(args.folder, seq, args.visual, rng)
-    frames = av163_frames(seq, visual, config.sigma_audio, config.gate)
+    doa = list(seq.z_doa)
+    if args.clutter_rate > 0:
+        visual, doa = add_clutter(visual, doa, args.clutter_rate, args.clutter_rate,
+                                  np.random.default_rng([args.seed, args.seq, args.cam, 7]),
+                                  config.image_size)
+        config = dataclasses.replace(config, clutter_visual=config.clutter_visual
+                                     + args.clutter_rate, clutter_audio=config.clutter_audio
+                                     + args.clutter_rate)  # fmt: skip
+        used += f" + {args.clutter_rate:g} false alarms/frame"
+    frames = av163_frames(seq, visual, config.sigma_audio, config.gate, doa_deg=doa)
     tracker = PHD_FILTERS[args.filter](config, seed=args.seed)
     with progress.counting(tracker, "step", len(frames), args.filter, "frame", args.quiet):
         result = tracker.run(frames)

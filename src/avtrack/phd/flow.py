@@ -142,6 +142,7 @@ def mixture_flow(
     diffusion: float = 1.0,
     rng: np.random.Generator | None = None,
     allowed: np.ndarray | None = None,
+    exact_jacobian: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Flow particles towards a mixture likelihood (seed eq. 10), per particle.
 
@@ -165,6 +166,13 @@ def mixture_flow(
     rng : numpy.random.Generator
     allowed : ndarray (N, R) bool, optional
         Components each particle's mixture may use (all when omitted).
+    exact_jacobian : bool
+        ``log_det`` from the exact derivative of the step map (responsibilities and ``S``
+        depend on ``m``): with ``g_r = b_r - A_r m``, ``g = sum_r pi_r g_r`` and
+        ``f = S g``, ``grad f = S [sum_r pi_r g_r (g_r - g)^T - A_bar
+        - lambda sum_r pi_r (A_r f)(g_r - g)^T]``. Otherwise the Gauss–Newton ``-S A_bar``
+        (responsibilities held fixed). Only the exact one makes eq. 22 an importance weight
+        of the deterministic flow (``diffusion = 0``).
 
     Returns
     -------
@@ -213,6 +221,105 @@ def mixture_flow(
             SB = S @ fac.reshape(n, dim, r * k)  # A_bar = fac fac^T
             eps = rng.standard_normal((n, r * k))
             m += diffusion * np.sqrt(dl) * np.einsum("nik,nk->ni", SB, eps)  # eq. 7: v w
-        log_det += _slogdet_abs(eye - dl * S @ A_bar)  # det(I + dl grad f)
+        if exact_jacobian:
+            g_r = b[None] - Am  # (N, R, M)
+            dev = g_r - grad[:, None, :]
+            C = np.einsum("nr,nri,nrj->nij", resp, g_r, dev)
+            Af = np.einsum("rij,nj->nri", A, f)
+            D = np.einsum("nr,nri,nrj->nij", resp, Af, dev)
+            jac = S @ (C - A_bar - lam_mid * D)
+        else:
+            jac = -S @ A_bar
+        log_det += _slogdet_abs(eye + dl * jac)  # det(I + dl grad f)
         lam += dl
     return m, log_det
+
+
+def affine_flow_map(
+    prior_info: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    B: np.ndarray,
+    steps: np.ndarray,
+    diffusion: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The affine flow of :func:`affine_flow` as one Gaussian map per group.
+
+    Each step of eqs. 6–8 with the quadratic log-likelihood is affine,
+    ``m <- J_s m + Delta lambda S_s b + v sqrt(Delta lambda) S_s B eps``, ``J_s = I - Delta lambda
+    S_s A``; composed over the steps, ``m_k = M m_{k|k-1} + c + e`` with
+    ``e ~ N(0, Sigma)``::
+
+        M     <- J_s M                                   (M_0 = I)
+        c     <- J_s c + Delta lambda S_s b              (c_0 = 0)
+        Sigma <- J_s Sigma J_s^T + v^2 Delta lambda S_s A S_s   (Sigma_0 = 0)
+
+    Sampling ``m_k`` this way has the same law as running the steps one by one, and gives the
+    proposal density of the flow in closed form (:mod:`avtrack.phd.lpf`, the weights of
+    eq. 22): given the parent, ``m_{k|k-1} ~ N(F m_{k-1}, Q)`` so
+    ``m_k ~ N(M F m_{k-1} + c, M Q M^T + Sigma)``. With ``diffusion = 0`` the map is
+    deterministic and ``|det M|`` is the product of eq. 22's ``|det(I + Delta lambda grad f)|``.
+
+    Parameters
+    ----------
+    prior_info : ndarray (G, M, M)
+        ``P^-1`` of each group (eq. 9).
+    A : ndarray (G, M, M), b : ndarray (G, M), B : ndarray (G, M, K)
+        ``-grad^2 log h``, ``grad log h = b - A m`` and a factor ``A = B B^T``.
+    steps : ndarray (S,)
+        ``Delta lambda`` per step.
+    diffusion : float
+        ``v`` of eq. 7.
+
+    Returns
+    -------
+    M : ndarray (G, M, M)
+    c : ndarray (G, M)
+    Sigma : ndarray (G, M, M)
+    """
+    g, dim = b.shape
+    for name, arr, shape in (("prior_info", prior_info, (g, dim, dim)), ("A", A, (g, dim, dim))):
+        if arr.shape != shape:
+            raise ValueError(f"affine_flow_map: {name} must have shape {shape}, got {arr.shape}")
+    if B.shape[:2] != (g, dim):
+        raise ValueError(f"affine_flow_map: B must have shape ({g}, {dim}, K), got {B.shape}")
+    if not (np.isfinite(diffusion) and diffusion >= 0):
+        raise ValueError(f"affine_flow_map: diffusion must be >= 0, got {diffusion}")
+    eye = np.eye(dim)
+    M = np.broadcast_to(eye, (g, dim, dim)).copy()
+    c = np.zeros((g, dim))
+    Sigma = np.zeros((g, dim, dim))
+    lam = 0.0
+    for dl in steps:
+        S = np.linalg.inv(prior_info + (lam + dl / 2) * A)  # eq. 9 at the step's midpoint
+        J = eye - dl * S @ A  # I + dl grad f, grad f = -S A (eq. 8)
+        M = J @ M
+        c = np.einsum("gij,gj->gi", J, c) + dl * np.einsum("gij,gj->gi", S, b)
+        if diffusion > 0:
+            SB = S @ B
+            Sigma = (J @ Sigma @ J.transpose(0, 2, 1)
+                     + diffusion**2 * dl * SB @ SB.transpose(0, 2, 1))
+        lam += dl
+    return M, c, Sigma
+
+
+def log_gaussian(x: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """``log N(x; mean, cov)`` row by row.
+
+    Parameters
+    ----------
+    x, mean : ndarray (N, M)
+    cov : ndarray (N, M, M) or (M, M)
+        Symmetric positive definite.
+
+    Returns
+    -------
+    ndarray (N,)
+    """
+    x = np.asarray(x, dtype=float)
+    n, dim = x.shape
+    cov = np.broadcast_to(cov, (n, dim, dim))
+    L = np.linalg.cholesky(cov)
+    e = np.linalg.solve(L, (x - mean)[:, :, None])[:, :, 0]
+    log_det = 2 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
+    return -0.5 * (np.sum(e * e, axis=1) + log_det + dim * np.log(2 * np.pi))

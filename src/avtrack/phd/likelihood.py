@@ -432,6 +432,52 @@ class SyntheticFaceDetector:
         return out
 
 
+def add_clutter(
+    visual: Sequence[np.ndarray],
+    doa_deg: Sequence[np.ndarray],
+    rate_visual: float,
+    rate_audio: float,
+    rng: np.random.Generator,
+    image_size: tuple[int, int] = IMAGE_SIZE,
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """Synthetic false alarms for a clutter stress test.
+
+    Per frame, Poisson(``rate_visual``) visual false alarms uniform over the image and
+    Poisson(``rate_audio``) DOA outliers uniform in azimuth over [-180, 180) degrees, appended
+    to the frame's measurements.
+
+    Parameters
+    ----------
+    visual : sequence of T ndarray (U_t, 2)
+    doa_deg : sequence of T ndarray (O_t,)
+    rate_visual, rate_audio : float
+        Mean false alarms per frame (>= 0).
+    rng : numpy.random.Generator
+    image_size : (width, height)
+
+    Returns
+    -------
+    visual, doa_deg : lists of T arrays
+    """
+    if len(visual) != len(doa_deg):
+        raise ValueError(
+            f"add_clutter: visual and doa_deg must have the same number of frames, got "
+            f"{len(visual)} and {len(doa_deg)}"
+        )
+    for name, v in (("rate_visual", rate_visual), ("rate_audio", rate_audio)):
+        if not (np.isfinite(v) and v >= 0):
+            raise ValueError(f"add_clutter: {name} must be a finite number >= 0, got {v!r}")
+    t = len(visual)
+    n_v = rng.poisson(rate_visual, size=t)
+    n_a = rng.poisson(rate_audio, size=t)
+    w, h = image_size
+    vis = [np.vstack([np.asarray(z, dtype=float).reshape(-1, 2), rng.random((k, 2)) * (w, h)])
+           for z, k in zip(visual, n_v, strict=True)]
+    doa = [np.concatenate([np.asarray(d, dtype=float).ravel(), rng.uniform(-180, 180, k)])
+           for d, k in zip(doa_deg, n_a, strict=True)]
+    return vis, doa
+
+
 def av163_frames(
     seq: AV163Sequence,
     visual: Sequence[np.ndarray],
@@ -439,6 +485,7 @@ def av163_frames(
     gate: float = 3.0,
     centre: Sequence[float] = AV163_ARRAY_CENTRE,
     height: float = AV163_MOUTH_HEIGHT,
+    doa_deg: Sequence[np.ndarray] | None = None,
 ) -> list[AVFrame]:
     """The fused measurements of every frame of an AV16.3 sequence.
 
@@ -450,22 +497,25 @@ def av163_frames(
         :meth:`SyntheticFaceDetector.detect`).
     sigma_audio : float
         Audio kernel width (pixels), for the pairing gate.
+    doa_deg : sequence of T ndarray (O_t,), optional
+        DOAs to use instead of the sequence's ``z_doa`` (e.g. with :func:`add_clutter`).
 
     Returns
     -------
     list of T AVFrame
     """
-    if len(visual) != seq.n_frames:
+    z_doa = seq.z_doa if doa_deg is None else doa_deg
+    if len(visual) != seq.n_frames or len(z_doa) != seq.n_frames:
         raise ValueError(
-            f"av163_frames: visual must have one entry per frame ({seq.n_frames}), "
-            f"got {len(visual)}"
+            f"av163_frames: visual and doa_deg must have one entry per frame ({seq.n_frames}), "
+            f"got {len(visual)} and {len(z_doa)}"
         )
-    counts = np.array([z.size for z in seq.z_doa])
-    all_doa = np.concatenate([np.zeros(0), *seq.z_doa])
+    counts = np.array([np.size(z) for z in z_doa])
+    all_doa = np.concatenate([np.zeros(0), *[np.ravel(z) for z in z_doa]])
     lines = doa_lines(seq.camera, seq.align_mat, all_doa, centre, height)
     split = np.split(lines, np.cumsum(counts)[:-1])
     return [
-        make_frame(visual[k], seq.z_doa[k], split[k], sigma_audio, gate)
+        make_frame(visual[k], np.ravel(z_doa[k]), split[k], sigma_audio, gate)
         for k in range(seq.n_frames)
     ]
 

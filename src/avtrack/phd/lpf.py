@@ -1,41 +1,44 @@
 """AV-LPF-SMC-PHD: the labelled non-zero particle flow SMC-PHD filter (Liu et al. §3, Alg. 1).
 
-Every particle carries an audio label ``l_ring`` and a visual label ``l_breve`` — the
-measurement it is associated with, 0 for none — instead of a cluster:
+Every particle carries a *track label* (the birth it descends from) and, on each frame, the
+fused measurement its label is associated with — its audio label ``l_ring`` and visual label
+``l_breve`` are the two parts ``(o_r, u_r)`` of that measurement — instead of a cluster. With
+the default ``flow_weights="proposal"``:
 
-- births are labelled with the measurement they are drawn from (eq. 13);
-- a surviving particle takes the best measurement within the gate (eqs. 15–16: the argmax of
-  the product of the audio and visual kernels, eq. 21), each of its two labels kept with
-  probability ``p_D`` of that modality (the random ``r(1) < p_D`` of eq. 17);
-- the covariance ``P_{k|k-1}`` of a particle is the weighted covariance of the predicted
-  particles with the same two labels (eqs. 18–20), plus the process noise ``Q`` (a floor for
-  labels held by a single particle);
-- the flow (eqs. 6–9) uses the particle's own likelihood (eq. 21), the product of its labelled
-  kernels: quadratic in the state, so the flow is affine and shared by all particles with the
-  same labels (one 4×4 inverse per label and step, :func:`~avtrack.phd.flow.affine_flow`);
-- weights follow eqs. 22–23, with the flow's proposal factor (Jacobian determinant and
-  density ratio) chosen by :attr:`PHDConfig.flow_weights` (default: the transition-density
-  ratio written in eq. 22);
-- the speakers are the measurements whose labelled particles weigh at least ``xi`` (0.5), at
-  their particles' weighted mean (eqs. 24–25). No clustering anywhere.
+- each label takes at most one fused measurement and each measurement at most one label
+  (eqs. 15–16 per label: an assignment maximising ``sum log(G_lr / kappa_r)`` over the
+  pairs where the label explains the measurement better than clutter, ``G_lr`` = eq. 12 over
+  the label's gated predicted particles, :meth:`LPFSMCPHD._associate`); a particle is
+  labelled with its label's measurement when it is within its gate;
+- births (eq. 13) come from visual measurements that no label takes, join the PHD after the
+  frame's update (:mod:`~avtrack.phd.smc_phd`), and take the label of a confirmed label
+  without a measurement, or of a recently dropped one, found near them (the older label is
+  kept);
+- the flow (eqs. 6–9) uses the label's likelihood (eq. 21, Gaussian in the position: the flow
+  is affine) with the particle's transition covariance ``Q`` as the prior of eq. 9
+  (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance), composed into one
+  Gaussian map per label (:func:`~avtrack.phd.flow.affine_flow_map`);
+- weights follow eqs. 22–23 with density likelihoods and clutter intensities
+  (:func:`~avtrack.phd.smc_phd.measurement_model`) and the importance weight of the flow
+  actually run, ``phi(m_k | m_{k-1}) / q(m_k | m_{k-1})``;
+- a speaker is a label whose weight on its measurement (eq. 25) is at least ``xi``, at its
+  particles' weighted mean (eq. 24); each label is resampled on its own. No clustering.
 
-Labels refer to the fused measurements of :func:`~avtrack.phd.likelihood.pair_measurements`:
-the audio and visual labels of a particle are the two parts ``(o_r, u_r)`` of one fused
-measurement ``r`` (or one of them, or none, after the ``p_D`` draw). Deviations from the
-seed's text, each needed to keep a speaker from being counted twice or the weights from being
-unbounded: the normaliser ``G`` of eq. 23 sums over all particles labelled with a part of the
-same fused measurement (not only those with both labels equal), the label-(0, 0) weight of
-eq. 22 keeps the factor ``w_{k|k-1}`` of eq. 11, and eqs. 24–25 use the updated weights and
-states. Reported speakers carry the identity of the birth that most of their weight descends
-from.
+The legacy ``flow_weights`` ("transition", "gaussian", "none") keep the seed's per-particle
+labels with eq. 17's random ``p_D`` drop, eqs. 18–20's covariance, peak-1 kernels with the
+seed's ``kappa`` and eq. 22's factor as printed (not an importance weight when
+``diffusion > 0``). Deviations there, as before: the normaliser ``G`` of eq. 23 sums over all
+particles labelled with a part of the same fused measurement, and the label-(0, 0) weight of
+eq. 22 keeps the factor ``w_{k|k-1}`` of eq. 11.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from avtrack.phd.base import register_phd_filter
-from avtrack.phd.flow import affine_flow
+from avtrack.phd.flow import affine_flow, affine_flow_map, log_gaussian
 from avtrack.phd.likelihood import AVFrame, audio_information, visual_information
 from avtrack.phd.smc_phd import (
     STATE_DIM,
@@ -43,11 +46,17 @@ from avtrack.phd.smc_phd import (
     Prediction,
     SMCPHDFilter,
     Update,
+    log_pair_norm,
     log_transition_ratio,
+    measurement_model,
+    systematic_resample,
     weighted_moments,
 )
 
-_BOTH, _AUDIO, _VISUAL = 0, 1, 2  # which parts of the fused measurement a particle keeps
+_BOTH, _AUDIO, _VISUAL = 0, 1, 2
+#: The seed's clutter terms (§4: kappa_ring = kappa_breve = 0.0035), in the unit of kernels that
+#: peak at 1; used by the legacy ``flow_weights`` choices only.
+SEED_KAPPA = 0.0035  # which parts of the fused measurement a particle keeps
 
 
 def label_information(
@@ -90,19 +99,6 @@ def label_information(
     return A, b, B
 
 
-def _majority(tids: np.ndarray, weights: np.ndarray, group: np.ndarray, n_groups: int):
-    """Per group, the tid carrying most weight (-1 for an empty group)."""
-    out = np.full(n_groups, -1, dtype=np.int64)
-    if tids.size == 0:
-        return out
-    uniq, inv = np.unique(tids, return_inverse=True)
-    table = np.zeros((n_groups, len(uniq)))
-    np.add.at(table, (group, inv), weights)
-    has = table.sum(axis=1) > 0
-    out[has] = uniq[np.argmax(table[has], axis=1)]
-    return out
-
-
 @register_phd_filter("lpf")
 class LPFSMCPHD(SMCPHDFilter):
     """AV-LPF-SMC-PHD filter (Liu et al., Algorithm 1).
@@ -111,30 +107,118 @@ class LPFSMCPHD(SMCPHDFilter):
     ----------
     config : PHDConfig, optional
     seed : int, optional
-        Seed of the filter's random generator (prediction noise, births, label draws, flow
-        diffusion, resampling).
+        Seed of the filter's random generator (prediction noise, births, flow diffusion,
+        resampling).
     """
+
+    def reset(self) -> None:
+        super().reset()
+        self._frame = 0
+        self._confirmed: dict[int, int] = {}  # label -> last frame its weight was >= xi
+        self._assoc: dict[int, int] = {}  # label -> its measurement on the current frame
+        self._seen: dict[int, np.ndarray] = {}  # confirmed label -> position when last >= xi
+        self._lost: dict[int, tuple[np.ndarray, int]] = {}  # dropped label -> (position, frame)
+
+    def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
+        """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
+        most one fused measurement and each measurement at most one label, maximising
+        ``sum log(G_lr / kappa_r)`` over the pairs where the label explains the measurement
+        better than clutter, ``G_lr = sum_{i in l} p_D^r h^{i,r} w_{k|k-1}^i`` (eq. 12 over
+        the label's gated predicted particles).
+
+        Returns
+        -------
+        dict
+            label -> row of ``frame.pairs``.
+        """
+        cfg = self.config
+        if len(pred.weights) == 0 or frame.n_pairs == 0:
+            return {}
+        p_d, kappa, _, log_na, log_nv = measurement_model(frame, cfg)
+        lik = np.exp(np.where(pred.gated, pred.log_audio + pred.log_visual, -np.inf)
+                     + log_pair_norm(frame, log_na, log_nv)) * p_d
+        uniq, group = np.unique(pred.tids, return_inverse=True)
+        G = np.zeros((len(uniq), frame.n_pairs))
+        np.add.at(G, group, pred.weights[:, None] * lik)
+        with np.errstate(divide="ignore"):
+            score = np.log(G) - np.log(kappa)
+        ok = score > 0
+        if not np.any(ok):
+            return {}
+        cost = np.where(ok, -score, 0.0)
+        rows, cols = linear_sum_assignment(cost)
+        return {int(uniq[i]): int(r) for i, r in zip(rows, cols, strict=True) if ok[i, r]}
+
+    def _birth(self, frame: AVFrame, pred: Prediction) -> Births:
+        """Births of :meth:`SMCPHDFilter._birth` for the measurements that no label takes
+        (:meth:`_associate`); a birth within ``relabel_distance`` of a confirmed label that
+        takes no measurement of the frame continues that label (the older label is kept: a
+        speaker whose detections jumped out of its gate, or who reappears after a miss, keeps
+        its identity)."""
+        cfg = self.config
+        if cfg.flow_weights != "proposal":
+            return super()._birth(frame, pred)
+        self._assoc = self._associate(frame, pred)
+        taken = np.zeros(frame.n_pairs, dtype=bool)
+        taken[list(self._assoc.values())] = True
+        pred.explained = taken
+        births = super()._birth(frame, pred)
+        self._lost = {t: v for t, v in self._lost.items()
+                      if self._frame - v[1] <= cfg.relink_frames}
+        if not (len(births.tids) and (self._confirmed or self._lost)
+                and cfg.relabel_distance > 0):
+            return births
+        # candidates: confirmed labels alive but without a measurement (at their predicted
+        # mean), then dropped labels (where they were last confirmed)
+        uniq, group = np.unique(pred.tids, return_inverse=True)
+        _, mean, _ = weighted_moments(pred.states, pred.weights + 1e-300, group, len(uniq))
+        cand = [(int(t), mean[j, :2], 0) for j, t in enumerate(uniq.tolist())
+                if t in self._confirmed and t not in self._assoc]
+        cand += [(t, pos, self._frame - f) for t, (pos, f) in self._lost.items()]
+        tids = births.tids.copy()
+        for r in np.unique(births.measurement):
+            if not cand:
+                break
+            z = frame.visual[frame.pairs[r, 1] - 1]
+            d = np.array([np.linalg.norm(pos - z) for _, pos, _ in cand])
+            reach = np.array([cfg.relabel_distance + cfg.relink_speed * gap
+                              for _, _, gap in cand])
+            best = int(np.argmin(d / reach))
+            if d[best] <= reach[best]:
+                tid = cand.pop(best)[0]
+                tids[births.measurement == r] = tid
+                self._lost.pop(tid, None)
+        return Births(births.states, births.measurement, births.weights, tids)
 
     def _update(self, frame: AVFrame, pred: Prediction, births: Births) -> Update:
         cfg = self.config
         pairs = frame.pairs
         n_r = frame.n_pairs
         n = len(pred.weights)
+        p_d, kappa, p_miss, log_na, log_nv = measurement_model(frame, cfg)
+        legacy = cfg.flow_weights != "proposal"
         pa, pv = cfg.p_detect_audio, cfg.p_detect_visual
-        kappa = cfg.clutter_audio + cfg.clutter_visual
 
-        # eqs. 15-17: best gated measurement, each part kept with probability p_D
+        # eqs. 15-16: the best gated measurement (eq. 17's random drop: legacy weights only;
+        # with "proposal" weights every gated particle flows to its measurement and missed
+        # detections enter through p_D of eq. 22, see the module docstring)
         meas = np.full(n, -1, dtype=np.int64)
-        kind = np.zeros(n, dtype=np.int64)
-        if n and n_r:
+        kind = np.full(n, _BOTH, dtype=np.int64)
+        if n and n_r and not legacy:  # the label's measurement, where the particle is gated
+            r_of = np.array([self._assoc.get(int(t), -1) for t in pred.tids], dtype=np.int64)
+            has = r_of >= 0
+            has[has] = pred.gated[np.flatnonzero(has), r_of[has]]
+            meas[has] = r_of[has]
+        elif n and n_r:
             score = np.where(pred.gated, pred.log_audio + pred.log_visual, -np.inf)
             best = np.argmax(score, axis=1)
             found = np.isfinite(score[np.arange(n), best])
-            keep_a = (self.rng.random(n) < pa) & (pairs[best, 0] > 0)  # delta_{r(1)}(p_D)
-            keep_v = (self.rng.random(n) < pv) & (pairs[best, 1] > 0)
-            det = found & (keep_a | keep_v)
-            meas[det] = best[det]
-            kind = np.where(keep_a & keep_v, _BOTH, np.where(keep_a, _AUDIO, _VISUAL))
+            if legacy:
+                keep_a = (self.rng.random(n) < pa) & (pairs[best, 0] > 0)  # delta_{r(1)}(p_D)
+                keep_v = (self.rng.random(n) < pv) & (pairs[best, 1] > 0)
+                found &= keep_a | keep_v
+                kind = np.where(keep_a & keep_v, _BOTH, np.where(keep_a, _AUDIO, _VISUAL))
+            meas[found] = best[found]
         det = meas >= 0
         moved = pred.states.copy()
         log_rho = np.zeros(n)
@@ -143,14 +227,34 @@ class LPFSMCPHD(SMCPHDFilter):
             ukey, group = np.unique(key, return_inverse=True)
             # eqs. 18-20: covariance of the predicted particles sharing both labels
             _, mean, cov = weighted_moments(pred.states[det], pred.weights[det], group, len(ukey))
-            prior_info = np.linalg.inv(cov + self.Q)
+            if cfg.flow_prior == "label" or legacy:
+                P = cov + self.Q  # eqs. 18-20, the label's spread (Q: a floor)
+            else:  # the particle's own transition density N(F m_{k-1}, Q)
+                P = np.broadcast_to(self.Q, cov.shape)
+            prior_info = np.linalg.inv(P)
             A, b, B = label_information(
                 frame, ukey // 3, ukey % 3, cfg.sigma_visual, cfg.sigma_audio
             )
             x = pred.states[det]
-            # eqs. 6-9 with the label likelihood of eq. 21
-            m_k, log_det = affine_flow(x, group, prior_info, A, b, B, self.steps, cfg.diffusion,
-                                       self.rng)  # fmt: skip
+            if legacy:
+                # eqs. 6-9 with the label likelihood of eq. 21, step by step
+                m_k, log_det = affine_flow(x, group, prior_info, A, b, B, self.steps,
+                                           cfg.v, self.rng)  # fmt: skip
+            else:
+                # the same flow as one Gaussian map per label (same law), whose density given
+                # the parent is known: m_k ~ N(M F m_{k-1} + c, M Q M^T + Sigma)
+                M, c, Sig = affine_flow_map(prior_info, A, b, B, self.steps, cfg.v)
+                m_k = np.einsum("nij,nj->ni", M[group], x) + c[group]
+                if cfg.v > 0:
+                    L = np.linalg.cholesky(Sig + 1e-9 * np.eye(STATE_DIM))
+                    eps = self.rng.standard_normal(x.shape)
+                    m_k += np.einsum("nij,nj->ni", L[group], eps)
+                # importance weight of the flow: phi(m_k | m_{k-1}) / q(m_k | m_{k-1})
+                q_mean = np.einsum("nij,nj->ni", M[group], pred.mean[det]) + c[group]
+                q_cov = M @ self.Q @ M.transpose(0, 2, 1) + Sig + 1e-9 * np.eye(STATE_DIM)
+                log_rho[det] = log_gaussian(m_k, pred.mean[det], self.Q) - log_gaussian(
+                    m_k, q_mean, q_cov[group]
+                )
             moved[det] = m_k
             # eq. 22: |det(I + dl grad f)| phi(m_k | .) / phi(m_k|k-1 | .)
             if cfg.flow_weights == "transition":
@@ -162,17 +266,12 @@ class LPFSMCPHD(SMCPHDFilter):
                     m_k, pred.states[det], mean[group], prior_info[group]
                 )
 
-        # eq. 21 at the moved particles and at the births (labelled with both parts)
-        states = np.vstack([moved, births.states])
-        meas_all = np.concatenate([meas, births.measurement])
-        kind_all = np.concatenate([kind, np.full(len(births.measurement), _BOTH)])
-        w_prior = np.concatenate([pred.weights, births.weights])
-        rho = np.exp(np.clip(np.concatenate([log_rho, np.zeros(len(births.weights))]), -500, 500))
-        lab = meas_all >= 0
-        r = meas_all[lab]
-        o = pairs[r, 0] * (kind_all[lab] != _VISUAL)
-        u = pairs[r, 1] * (kind_all[lab] != _AUDIO)
-        pos = states[lab, :2]
+        # eq. 21 at the moved particles: the density of the labelled parts
+        rho = np.exp(np.clip(log_rho, -500, 500))
+        r = meas[det]
+        o = pairs[r, 0] * (kind[det] != _VISUAL)
+        u = pairs[r, 1] * (kind[det] != _AUDIO)
+        pos = moved[det, :2]
         log_h = np.zeros(len(r))
         ha, hv = o > 0, u > 0
         line = frame.lines[o[ha] - 1]
@@ -180,29 +279,92 @@ class LPFSMCPHD(SMCPHDFilter):
         log_h[ha] -= 0.5 * (d_a / cfg.sigma_audio) ** 2
         d2_v = np.sum((pos[hv] - frame.visual[u[hv] - 1]) ** 2, axis=1)
         log_h[hv] -= 0.5 * d2_v / cfg.sigma_visual**2
-        # p_ring^delta0(l_ring) p_breve^delta0(l_breve) of eqs. 22-23
-        p_d = np.where(ha, pa, 1.0) * np.where(hv, pv, 1.0)
-        num = p_d * np.exp(log_h) * rho[lab] * w_prior[lab]
+        if legacy:  # the seed's kernels (peak 1) and p_D of eqs. 22-23
+            pd_i = np.where(ha, pa, 1.0) * np.where(hv, pv, 1.0)
+            kap = np.full(n_r, 2 * SEED_KAPPA)
+            miss = (1 - pa) * (1 - pv)
+        else:  # densities; p_D and kappa of the fused measurement (measurement_model)
+            log_h += ha * log_na + hv * log_nv
+            pd_i, kap, miss = p_d[r], kappa, p_miss
+        num = pd_i * np.exp(log_h) * rho[det] * pred.weights[det]
         G = np.bincount(r, num, minlength=n_r)  # eq. 23 (over the particles of measurement r)
-        weights = (1 - pa) * (1 - pv) * w_prior  # eq. 22, l_ring = l_breve = 0
-        weights[lab] = num / (kappa + G[r])  # eq. 22, labelled particles
+        weights = miss * pred.weights  # eq. 22, l_ring = l_breve = 0
+        weights[det] = num / (kap[r] + G[r])  # eq. 22, labelled particles
+        return self._extract(moved, weights, pred.tids, meas)
 
-        # eqs. 24-25: speakers = measurements whose particles weigh at least xi
-        tids = np.concatenate([pred.tids, births.tids])
-        group = np.where(lab, meas_all, n_r)
-        mass, mean, _ = weighted_moments(states, weights, group, n_r + 1)
-        keep = np.flatnonzero(mass[:n_r] >= cfg.extraction_threshold)
-        ids = _majority(tids[lab], weights[lab], meas_all[lab], n_r)[keep]
-        ids = _unique_ids(ids, mass[keep])
-        return Update(states, weights, tids, mean[keep], mass[keep], ids)
+    def _extract(
+        self, states: np.ndarray, weights: np.ndarray, tids: np.ndarray, measurement: np.ndarray
+    ) -> Update:
+        """Label-wise speakers (eqs. 24–25 with the persistent labels).
 
+        A label's weight is eq. 25's: the weight of its particles labelled with its main
+        measurement (the one holding most of its weight; at most one speaker per measurement,
+        eq. 23); ``measurement`` (N,) is each particle's label, -1 for none. Every label whose
+        weight is at least ``xi`` is reported at its particles' weighted mean; a confirmed
+        label whose weight drops below ``xi`` (missed detections) keeps being reported, with
+        that weight, for up to ``coast_frames`` frames.
+        """
+        cfg = self.config
+        self._frame += 1
+        labelled = measurement >= 0
+        uniq, group = np.unique(tids, return_inverse=True)
+        total, mean, _ = weighted_moments(states, weights, group, len(uniq))
+        mass = np.zeros(len(uniq))  # weight on the label's main measurement (eq. 25)
+        if np.any(labelled):
+            _, r_idx = np.unique(measurement[labelled], return_inverse=True)
+            table = np.zeros((len(uniq), r_idx.max() + 1))
+            np.add.at(table, (group[labelled], r_idx), weights[labelled])
+            mass = table.max(axis=1)
+        report = []
+        for j, (tid, m) in enumerate(zip(uniq.tolist(), mass, strict=True)):
+            if m >= cfg.extraction_threshold:
+                self._confirmed[tid] = self._frame
+                self._seen[tid] = mean[j, :2].copy()
+                report.append(j)
+            elif tid in self._confirmed and (
+                self._frame - self._confirmed[tid] <= cfg.coast_frames and total[j] > 0
+            ):
+                report.append(j)
+        live = set(uniq.tolist())
+        self._confirmed = {t: f for t, f in self._confirmed.items() if t in live}
+        keep = np.asarray(report, dtype=np.int64)
+        return Update(states, weights, tids, mean[keep], mass[keep], uniq[keep])
 
-def _unique_ids(ids: np.ndarray, mass: np.ndarray) -> np.ndarray:
-    """Keep each identity on its heaviest speaker; the others get -1."""
-    out = ids.copy()
-    seen: set[int] = set()
-    for i in np.argsort(-mass, kind="stable"):
-        if out[i] >= 0 and int(out[i]) in seen:
-            out[i] = -1
-        seen.add(int(out[i]))
-    return out
+    def _resample(
+        self, states: np.ndarray, weights: np.ndarray, tids: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+        """Per label: drop labels that are neither reported, coasting nor heavier than
+        ``prune_weight``; resample a label on its own when its ESS falls below
+        ``resample_fraction`` of its particles, to ``particles_per_target`` particles of equal
+        weight (its weight unchanged), so that a label keeps its particles through misses."""
+        cfg = self.config
+        if len(weights) == 0:
+            return states, weights, tids, False
+        uniq, group = np.unique(tids, return_inverse=True)
+        mass = np.bincount(group, weights, minlength=len(uniq))
+        sq = np.bincount(group, weights * weights, minlength=len(uniq))
+        count = np.bincount(group, minlength=len(uniq))
+        out_s, out_w, out_t = [], [], []
+        resampled = False
+        for j, tid in enumerate(uniq.tolist()):
+            coasting = (tid in self._confirmed
+                        and self._frame - self._confirmed[tid] <= cfg.coast_frames)
+            if not (coasting or mass[j] >= cfg.prune_weight) or mass[j] <= 0:
+                if self._confirmed.pop(tid, None) is not None and tid in self._seen:
+                    self._lost[tid] = (self._seen.pop(tid), self._frame)
+                continue
+            sel = np.flatnonzero(group == j)
+            ess = mass[j] ** 2 / sq[j] if sq[j] > 0 else 0.0
+            if ess < cfg.resample_fraction * count[j] or count[j] > 4 * cfg.particles_per_target:
+                idx = sel[systematic_resample(weights[sel], cfg.particles_per_target, self.rng)]
+                out_s.append(states[idx])
+                out_w.append(np.full(len(idx), mass[j] / len(idx)))
+                out_t.append(tids[idx])
+                resampled = True
+            else:
+                out_s.append(states[sel])
+                out_w.append(weights[sel])
+                out_t.append(tids[sel])
+        if not out_s:
+            return np.zeros((0, STATE_DIM)), np.zeros(0), np.zeros(0, dtype=np.int64), resampled
+        return np.vstack(out_s), np.concatenate(out_w), np.concatenate(out_t), resampled

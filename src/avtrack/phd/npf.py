@@ -10,11 +10,16 @@ baseline of ref. [9]).
   are not pulled); its Hessian is the Gauss–Newton one (:func:`~avtrack.phd.flow.mixture_flow`),
   one 4×4 inverse per particle and step.
 - The weights follow the PHD update of eqs. 11–12 over the fused measurements, the likelihood
-  of a measurement being the product of the kernels of its parts (as eq. 21: the weighted
+  of a measurement being the product of the densities of its parts (as eq. 21: the weighted
   mean of eq. 10 would give every particle on a DOA line half the weight of a particle on the
-  speaker), times the flow's proposal factor of eq. 22 as configured by
-  ``PHDConfig.flow_weights`` (the same for both filters); ``p_D`` of a fused measurement is
-  that of its parts, the missed-detection term ``(1 - p_ring)(1 - p_breve)``.
+  speaker) with ``p_D`` and ``kappa`` of :func:`~avtrack.phd.smc_phd.measurement_model`,
+  times the flow's proposal factor of eq. 22 as configured by ``PHDConfig.flow_weights``
+  (the same for both filters). Under the default ``"proposal"`` the flow is deterministic
+  (``diffusion`` is not used: the stochastic per-particle flow has no tractable density) and
+  eq. 22's factor uses the exact Jacobian of the flow, so it is an importance weight; the
+  flow's mixture keeps the seed's background ``kappa`` (peak-1 kernels) as its floor. The
+  legacy settings keep peak-1 kernels and the seed's ``kappa`` in the weights too, and update
+  their births on the frame they are drawn.
 - Speakers are the centroids of a weighted k-means of the updated particles into
   ``round(sum w_k)`` clusters, weighted by their cluster masses (§2). Identities: none (-1).
 """
@@ -31,13 +36,16 @@ from avtrack.phd.likelihood import (
     pair_log_kernels,
     visual_information,
 )
+from avtrack.phd.lpf import SEED_KAPPA
 from avtrack.phd.smc_phd import (
     STATE_DIM,
     Births,
     Prediction,
     SMCPHDFilter,
     Update,
+    log_pair_norm,
     log_transition_ratio,
+    measurement_model,
     phd_update,
     weighted_moments,
 )
@@ -159,7 +167,7 @@ class NPFSMCPHD(SMCPHDFilter):
         pairs = frame.pairs
         n = len(pred.weights)
         pa, pv = cfg.p_detect_audio, cfg.p_detect_visual
-        kappa = cfg.clutter_audio + cfg.clutter_visual
+        legacy = cfg.flow_weights != "proposal"
 
         moved = pred.states.copy()
         log_rho = np.zeros(n)
@@ -173,12 +181,17 @@ class NPFSMCPHD(SMCPHDFilter):
             P = cov + self.Q
             allowed = self._cluster_gate(frame, mean[:, :2], P[:, :2, :2])[:, keep][assign]
             prior_info = np.linalg.inv(P)[assign]
-            # eqs. 6-10: flow towards the mixture of every kernel within the cluster's gate
-            x, floor = pred.states, np.log(kappa)
+            # eq. 10: every particle flows towards the mixture of every kernel within the
+            # cluster's gate, over a background (the seed's kappa in the kernels' unit)
+            x, floor = pred.states, np.log(2 * SEED_KAPPA)
+            # "proposal": the deterministic flow, whose exact Jacobian makes eq. 22 an
+            # importance weight (the stochastic one has no tractable density)
+            v = cfg.v if legacy else 0.0
             moved, log_det = mixture_flow(x, prior_info, A, b, log_c, B, self.steps, floor,
-                                          cfg.diffusion, self.rng, allowed)  # fmt: skip
+                                          v, self.rng, allowed,
+                                          exact_jacobian=not legacy)  # fmt: skip
             # the flow's proposal factor, as eq. 22: |det J| phi(m_k | .) / phi(m_k|k-1 | .)
-            if cfg.flow_weights == "transition":
+            if cfg.flow_weights in ("transition", "proposal"):
                 log_rho = log_det + log_transition_ratio(
                     moved, pred.states, pred.mean, self.Q_info
                 )
@@ -187,23 +200,31 @@ class NPFSMCPHD(SMCPHDFilter):
                     moved, pred.states, mean[assign], prior_info
                 )
 
-        states = np.vstack([moved, births.states])
-        rho = np.exp(np.clip(np.concatenate([log_rho, np.zeros(len(births.weights))]), -500, 500))
-        w_prior = np.concatenate([pred.weights, births.weights]) * rho
-        log_a, log_v = pair_log_kernels(states[:, :2], frame, cfg.sigma_visual, cfg.sigma_audio)
-        lik = np.exp(log_a + log_v)  # joint likelihood of the fused measurement's parts
-        p_d = np.where(pairs[:, 0] > 0, pa, 1.0) * np.where(pairs[:, 1] > 0, pv, 1.0)
-        weights, _ = phd_update(
-            lik, p_d, (1 - pa) * (1 - pv), np.full(frame.n_pairs, kappa), w_prior
-        )  # eqs. 11-12
-        tids = np.concatenate([pred.tids, births.tids])
+        rho = np.exp(np.clip(log_rho, -500, 500))
+        w_prior = pred.weights * rho
+        tids = pred.tids
+        if legacy:  # the births are updated with the survivors, on the frame they are drawn
+            moved = np.vstack([moved, births.states])
+            w_prior = np.concatenate([w_prior, births.weights])
+            tids = np.concatenate([tids, births.tids])
+        log_a, log_v = pair_log_kernels(moved[:, :2], frame, cfg.sigma_visual, cfg.sigma_audio)
+        if legacy:  # the seed's kernels (peak 1), p_D and kappa
+            lik = np.exp(log_a + log_v)
+            p_d = np.where(pairs[:, 0] > 0, pa, 1.0) * np.where(pairs[:, 1] > 0, pv, 1.0)
+            kappa = np.full(frame.n_pairs, 2 * SEED_KAPPA)
+            p_miss = (1 - pa) * (1 - pv)
+        else:  # densities, with p_D and kappa of each fused measurement
+            p_d, kappa, p_miss, log_na, log_nv = measurement_model(frame, cfg)
+            lik = np.exp(log_a + log_v + log_pair_norm(frame, log_na, log_nv))
+        weights, _ = phd_update(lik, p_d, p_miss, kappa, w_prior)  # eqs. 11-12
 
         # state extraction by clustering the updated particles (§2)
         card = weights.sum()
         k = int(min(len(weights), round(card)))
         if k >= 1:
-            _, assign = kmeans(states[:, :2], k, self.rng, weights, self.kmeans_iterations)
-            mass, mean, _ = weighted_moments(states, weights, assign, k)
+            _, assign = kmeans(moved[:, :2], k, self.rng, weights, self.kmeans_iterations)
+            mass, mean, _ = weighted_moments(moved, weights, assign, k)
             ok = mass > 0
-            return Update(states, weights, tids, mean[ok], mass[ok], np.full(ok.sum(), -1))
-        return Update(states, weights, tids, np.zeros((0, STATE_DIM)), np.zeros(0), np.zeros(0))
+            return Update(moved, weights, tids, mean[ok], mass[ok], np.full(ok.sum(), -1), legacy)
+        return Update(moved, weights, tids, np.zeros((0, STATE_DIM)), np.zeros(0), np.zeros(0),
+                      legacy)

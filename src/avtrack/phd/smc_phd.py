@@ -8,13 +8,23 @@ One step (:meth:`SMCPHDFilter._step`):
 
 1. predict the surviving particles through the transition, ``w_{k|k-1} = p_S w_{k-1}``
    (eq. 4 with the transition as proposal ``q_k``);
-2. birth: for each fused measurement that has a visual part and that no surviving particle
-   explains (none within the gate — "if a new speaker appears", §2), ``N_B / n`` particles
-   drawn from the product of its visual and audio kernels (eq. 13, a Gaussian here) with
-   weights ``gamma / (N_B p) = birth_mass / n`` (eq. 5);
-3. the filter-specific update (flow, weights, speaker extraction) of the subclass;
+2. birth: for each fused measurement that has a visual part and that the surviving particles
+   do not explain — ``G_r = sum_i p_D^r h^{i,r} w_{k|k-1}^i`` (eq. 12 at the predicted
+   particles) below the clutter intensity ``kappa_r``, i.e. the measurement is more likely
+   clutter or new than an existing speaker ("if a new speaker appears", §2) — ``N_B / n``
+   particles drawn from the product of its visual and audio kernels (eq. 13, a Gaussian here)
+   with weights ``gamma / (N_B p) = birth_mass / n`` (eq. 5). As in the adaptive birth of
+   Ristic, Clark, Vo and Vo (2012), newborn particles join the PHD *after* the update of the
+   frame they are drawn from (the measurement that spawned them cannot also confirm them):
+   a speaker is confirmed by a second detection, a lone false alarm is not;
+3. the filter-specific update (flow, weights, speaker extraction) of the surviving particles;
 4. resampling when the effective sample size ``(sum w)^2 / sum w^2`` (Kong et al., ref. [16])
-   falls below half the particles (§2), to ``particles_per_target`` per estimated speaker.
+   falls below half the particles (§2), to ``particles_per_target`` per estimated speaker
+   (the LPF resamples each label on its own, :meth:`SMCPHDFilter._resample`).
+
+Likelihoods are densities (:func:`measurement_model`): the visual one per pixel^2, the
+DOA-line one per pixel of line offset, a fused pair's their product; the clutter intensities
+``kappa`` are in the same units, from the false-alarm rates of the configuration.
 """
 
 from __future__ import annotations
@@ -34,8 +44,14 @@ STATE_DIM = 4
 # --------------------------------------------------------------------------- plain functions
 
 
-def constant_velocity(position_std: float, velocity_std: float) -> tuple[np.ndarray, np.ndarray]:
+def constant_velocity(
+    position_std: float, velocity_std: float, correlation: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Transition matrix ``F`` and process-noise covariance ``Q`` (one frame).
+
+    ``correlation`` is that of the position and velocity noise of one axis (0: independent;
+    ``sqrt(3)/2`` for an integrated white-noise acceleration). With it, a position measurement
+    also informs the velocity of each particle's own transition (the flow and the weights).
 
     Returns
     -------
@@ -46,8 +62,57 @@ def constant_velocity(position_std: float, velocity_std: float) -> tuple[np.ndar
     """
     F = np.eye(STATE_DIM)
     F[0, 2] = F[1, 3] = 1.0
+    if not -1 < correlation < 1:
+        raise ValueError(f"constant_velocity: correlation must be in (-1, 1), got {correlation}")
     Q = np.diag([position_std**2] * 2 + [velocity_std**2] * 2)
+    Q[0, 2] = Q[2, 0] = Q[1, 3] = Q[3, 1] = correlation * position_std * velocity_std
     return F, Q
+
+
+def measurement_model(
+    frame: AVFrame, config: PHDConfig
+) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+    """Detection probabilities, clutter intensities and likelihood normalisers of a frame's
+    fused measurements (eqs. 11–12, 22–23 with density likelihoods).
+
+    Parameters
+    ----------
+    frame : AVFrame
+    config : PHDConfig
+
+    Returns
+    -------
+    p_detect : ndarray (R,)
+        ``p_ring p_breve`` for a pair, ``(1 - p_ring) p_breve`` for a visual point alone,
+        ``p_ring (1 - p_breve)`` for a DOA line alone.
+    kappa : ndarray (R,)
+        Clutter intensity of each measurement in the unit of its likelihood:
+        ``kappa_ring kappa_breve``, ``kappa_breve`` or ``kappa_ring``
+        (:class:`~avtrack.phd.base.PHDConfig`, ``clutter_audio`` / ``clutter_visual``).
+    p_miss : float
+        ``(1 - p_ring)(1 - p_breve)``.
+    log_norm_audio, log_norm_visual : float
+        ``-log(sqrt(2 pi) sigma_a)`` and ``-log(2 pi sigma_v^2)``: added to the log kernels of
+        :func:`~avtrack.phd.likelihood.pair_log_kernels` they give log densities.
+    """
+    cfg = config
+    w, h = cfg.image_size
+    k_v = cfg.clutter_visual / (w * h)
+    k_a = cfg.clutter_audio / float(np.hypot(w, h))
+    pa, pv = cfg.p_detect_audio, cfg.p_detect_visual
+    has_a, has_v = frame.pairs[:, 0] > 0, frame.pairs[:, 1] > 0
+    p_d = np.where(has_a, pa, 1 - pa) * np.where(has_v, pv, 1 - pv)
+    kappa = np.where(has_a, k_a, 1.0) * np.where(has_v, k_v, 1.0)
+    log_na = -0.5 * np.log(2 * np.pi * cfg.sigma_audio**2)
+    log_nv = -np.log(2 * np.pi * cfg.sigma_visual**2)
+    return p_d, kappa, (1 - pa) * (1 - pv), float(log_na), float(log_nv)
+
+
+def log_pair_norm(frame: AVFrame, log_norm_audio: float, log_norm_visual: float) -> np.ndarray:
+    """Log normaliser of each fused measurement's likelihood ``(R,)`` (the sum of its parts'
+    :func:`measurement_model` normalisers)."""
+    return ((frame.pairs[:, 0] > 0) * log_norm_audio
+            + (frame.pairs[:, 1] > 0) * log_norm_visual)
 
 
 def log_transition_ratio(
@@ -240,6 +305,7 @@ class Prediction:
     log_audio: np.ndarray  # (N, R)
     log_visual: np.ndarray  # (N, R)
     gated: np.ndarray  # (N, R) bool, within the gate of every part of r
+    explained: np.ndarray  # (R,) bool, G_r (eq. 12 at the predicted particles) > kappa_r
 
 
 @dataclass
@@ -254,14 +320,16 @@ class Births:
 
 @dataclass
 class Update:
-    """What a subclass's update returns (internal)."""
+    """What a subclass's update returns (internal): the updated surviving particles (the
+    births are added by the skeleton) and the speakers."""
 
-    states: np.ndarray  # (N + B, 4)
-    weights: np.ndarray  # (N + B,)
-    tids: np.ndarray  # (N + B,)
+    states: np.ndarray  # (N, 4)
+    weights: np.ndarray  # (N,)
+    tids: np.ndarray  # (N,)
     speaker_states: np.ndarray  # (J, 4)
     speaker_weights: np.ndarray  # (J,)
     speaker_ids: np.ndarray  # (J,)
+    includes_births: bool = False  # the legacy NPF updates its births with the survivors
 
 
 class SMCPHDFilter(PHDFilter):
@@ -271,7 +339,8 @@ class SMCPHDFilter(PHDFilter):
     def __init__(self, config: PHDConfig | None = None, seed: int | None = 0) -> None:
         super().__init__(config, seed)
         cfg = self.config
-        self.F, self.Q = constant_velocity(cfg.position_std, cfg.velocity_std)
+        self.F, self.Q = constant_velocity(cfg.position_std, cfg.velocity_std,
+                                           cfg.motion_correlation)
         self.Q_info = np.linalg.inv(self.Q)
         self._Q_chol = np.linalg.cholesky(self.Q)
         self.steps = flow_steps(cfg.flow_steps, cfg.flow_step_ratio)
@@ -294,13 +363,16 @@ class SMCPHDFilter(PHDFilter):
         log_a, log_v = pair_log_kernels(pred[:, :2], frame, cfg.sigma_visual, cfg.sigma_audio)
         limit = -0.5 * cfg.gate**2
         gated = (log_a >= limit) & (log_v >= limit)
-        return Prediction(
-            pred, mean, cfg.p_survival * self.weights, self.tids, log_a, log_v, gated
-        )  # eq. 4: w_{k|k-1} = phi / q w_{k-1} = p_S w_{k-1}
+        w = cfg.p_survival * self.weights  # eq. 4: w_{k|k-1} = phi / q w_{k-1} = p_S w_{k-1}
+        p_d, kappa, _, log_na, log_nv = measurement_model(frame, cfg)
+        log_lik = np.where(gated, log_a + log_v, -np.inf) + log_pair_norm(frame, log_na, log_nv)
+        lik = np.exp(log_lik)
+        explained = w @ lik * p_d > kappa  # eq. 12 at the predicted particles
+        return Prediction(pred, mean, w, self.tids, log_a, log_v, gated, explained)
 
     def _birth(self, frame: AVFrame, pred: Prediction) -> Births:
         cfg = self.config
-        new = np.flatnonzero((frame.pairs[:, 1] > 0) & ~pred.gated.any(axis=0))
+        new = np.flatnonzero((frame.pairs[:, 1] > 0) & ~pred.explained)
         states, which = sample_birth(frame, new, cfg.n_birth, cfg, self.rng)
         counts = np.bincount(which, minlength=frame.n_pairs)
         weights = cfg.birth_mass / counts[which] if which.size else np.zeros(0)  # eq. 5
@@ -310,24 +382,22 @@ class SMCPHDFilter(PHDFilter):
         return Births(states, which, weights, tids.astype(np.int64))
 
     def _step(self, frame: AVFrame) -> PHDEstimate:
-        cfg = self.config
         pred = self._predict(frame)
         births = self._birth(frame, pred)
         upd = self._update(frame, pred, births)
-        w = upd.weights
-        if not np.all(np.isfinite(w)) or np.any(w < 0):
+        if not np.all(np.isfinite(upd.weights)) or np.any(upd.weights < 0):
             raise FloatingPointError(f"{type(self).__name__}: particle weights are not finite")
-        card = float(w.sum())
+        # newborn particles join after the update (adaptive birth, see the module docstring)
+        if upd.includes_births:
+            states, w, tids = upd.states, upd.weights, upd.tids
+        else:
+            states = np.vstack([upd.states, births.states])
+            w = np.concatenate([upd.weights, births.weights])
+            tids = np.concatenate([upd.tids, births.tids])
         n = len(w)
         ess = effective_sample_size(w)
-        n_target = cfg.particles_per_target * max(1, round(card))
-        resample = n > 0 and (ess < cfg.resample_fraction * n or n > 10 * n_target)
-        if resample and card > 0:
-            idx = systematic_resample(w, n_target, self.rng)
-            self.states, self.tids = upd.states[idx], upd.tids[idx]
-            self.weights = np.full(n_target, card / n_target)
-        else:
-            self.states, self.weights, self.tids = upd.states, w, upd.tids
+        self.states, self.weights, self.tids, resample = self._resample(states, w, tids)
+        card = float(self.weights.sum())  # after any pruning
         return PHDEstimate(
             upd.speaker_states,
             upd.speaker_weights,
@@ -337,6 +407,22 @@ class SMCPHDFilter(PHDFilter):
             bool(resample),
             card,
         )
+
+    def _resample(
+        self, states: np.ndarray, weights: np.ndarray, tids: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+        """Resample all particles together when their ESS falls below ``resample_fraction``
+        of their number (§2), to ``particles_per_target`` per estimated speaker."""
+        cfg = self.config
+        card, n = float(weights.sum()), len(weights)
+        n_target = cfg.particles_per_target * max(1, round(card))
+        resample = n > 0 and (
+            effective_sample_size(weights) < cfg.resample_fraction * n or n > 10 * n_target
+        )
+        if resample and card > 0:
+            idx = systematic_resample(weights, n_target, self.rng)
+            return states[idx], np.full(n_target, card / n_target), tids[idx], True
+        return states, weights, tids, bool(resample)
 
     @abstractmethod
     def _update(self, frame: AVFrame, pred: Prediction, births: Births) -> Update: ...
