@@ -73,6 +73,7 @@ from avtrack.doa.gmphd import GMPHDPeer  # noqa: E402
 from avtrack.io.base import atomic_write  # noqa: E402
 from avtrack.io.doa import DOATable, read_doa_csv  # noqa: E402
 from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer  # noqa: E402
+from avtrack.metrics.doa import estimate_lag  # noqa: E402
 from avtrack.metrics.doa_tracking import TrackingScores, evaluate_tracks  # noqa: E402
 from avtrack.simulate.heatmaps import synthetic_heatmaps  # noqa: E402
 
@@ -163,8 +164,36 @@ def score(
     return evaluate_tracks(tracks, truth, frame_times=frame_times[keep])
 
 
-def frame_wise(scenes, method: str, skip: float) -> tuple[float, TrackingScores, float]:
-    """ROC-best peak threshold of a localizer over the scenes: ``(threshold, scores, RF)``."""
+MAX_SHIFT = 100  # frames of 8 ms searched by the lag measure, each way
+
+
+def lag(tracks: DOATable, truth: DOATable, skip: float) -> float:
+    """The estimates' lag in 8 ms frames (:func:`avtrack.metrics.doa.estimate_lag`: the time
+    shift of the ground truth that minimises the MAE), after ``skip`` seconds; NaN when
+    nothing succeeds."""
+    res = estimate_lag(tracks, truth, max_shift_frames=MAX_SHIFT, time_range_s=(skip, np.inf))
+    return float(res.lag_frames) if np.any(np.isfinite(res.mae)) else float("nan")
+
+
+@dataclasses.dataclass
+class Row:
+    """One method on one dataset: summed scores, per-scene scores and lags, RF."""
+
+    label: str
+    total: TrackingScores
+    per_scene: list[TrackingScores]
+    lags: list[float]
+    rf: float
+    is_tracker: bool
+
+    @property
+    def lag(self) -> float:
+        """Median of the scenes' lags (frames)."""
+        return float(np.nanmedian(self.lags)) if np.any(np.isfinite(self.lags)) else np.nan
+
+
+def frame_wise(scenes, method: str, skip: float) -> tuple[float, Row]:
+    """ROC-best peak threshold of a localizer over the scenes: ``(threshold, row)``."""
     grid = DirectionGrid.azimuths().azimuth_deg
     rows, loc_time, duration = [], 0.0, 0.0
     for d, truth in scenes:
@@ -184,15 +213,22 @@ def frame_wise(scenes, method: str, skip: float) -> tuple[float, TrackingScores,
         key = np.hypot(total.md_rate, total.fa_rate)
         if best is None or key < best[0]:
             best = (key, float(thr), total)
-    return best[1], best[2], loc_time / duration
+    thr = best[1]
+    chosen = [(table.select(table.weight >= thr), truth, ft) for table, truth, ft in rows]
+    per = [score(t, truth, ft, skip) for t, truth, ft in chosen]
+    lags = [lag(t, truth, skip) for t, truth, _ in chosen]
+    label = f"{LABELS[method]} (peaks >= {thr:.3g})"
+    return thr, Row(label, best[2], per, lags, loc_time / duration, False)
 
 
 def tracked(
-    scenes, tracker: str, skip: float, activity_threshold: float | None = None
-) -> tuple[TrackingScores, float, float]:
-    """A tracker on the DPRTF-EG heat maps: ``(scores, pipeline RF, tracker frames/s)``."""
+    scenes, tracker: str, skip: float, activity_threshold: float | None = None, label: str = ""
+) -> Row:
+    """A tracker on the DPRTF-EG heat maps (``row.rf``: the pipeline's RF)."""
     grid = DirectionGrid.azimuths().azimuth_deg
     total, loc_time, track_time, duration, n_frames = None, 0.0, 0.0, 0.0, 0
+    per: list[TrackingScores] = []
+    lags: list[float] = []
     for d, truth in scenes:
         w, t, f, elapsed, dur = heatmaps(d, "dprtf-eg")
         seq = heatmap_sequence(w, grid, f, t, STEP, DEFAULT_OBSERVATIONS.get(tracker, "peaks"))
@@ -208,75 +244,94 @@ def tracked(
         track_time += time.process_time() - t0
         s = score(tracks, truth, seq.time_s, skip)
         total = s if total is None else total + s
+        per.append(s)
+        lags.append(lag(tracks, truth, skip))
         loc_time += elapsed
         duration += dur
         n_frames += len(seq)
-    return total, (loc_time + track_time) / duration, n_frames / max(track_time, 1e-9)
+    return Row(label or tracker, total, per, lags, (loc_time + track_time) / duration, True)
 
 
-def tracked_roc(scenes, tracker: str, skip: float) -> tuple[float, TrackingScores, float]:
+def tracked_roc(scenes, tracker: str, skip: float, label: str) -> tuple[float, Row]:
     """The tracker's own ROC: its activity threshold δ (eqs. 5.43 / 5.62) swept like the peak
-    threshold of the frame-wise methods; ``(δ, scores, RF)`` at the point closest to the
-    origin (MD, FA)."""
+    threshold of the frame-wise methods; ``(δ, row)`` at the point closest to the origin
+    (MD, FA)."""
     default = REGISTERED[tracker].Config().activity_threshold
     best = None
     for thr in default * np.geomspace(0.125, 2.0, 9):
-        s, rf, _ = tracked(scenes, tracker, skip, float(thr))
-        key = np.hypot(s.md_rate, s.fa_rate)
+        row = tracked(scenes, tracker, skip, float(thr))
+        key = np.hypot(row.total.md_rate, row.total.fa_rate)
         if best is None or key < best[0]:
-            best = (key, float(thr), s, rf)
-    return best[1], best[2], best[3]
+            best = (key, float(thr), row)
+    row = best[2]
+    row.label = f"{label} (ROC-best δ = {best[1]:.3g})"
+    return best[1], row
+
+
+def _cells(s: TrackingScores) -> str:
+    d = s.as_dict()
+    return f"{d['MD%']:.1f} | {d['FA%']:.1f} | {d['MAE']:.2f}"
 
 
 def accuracy(args) -> list[str]:
     out = []
-    results = {}
+    results: dict[str, list[Row]] = {}
     for kind, title in DATASETS:
         scenes = []
         for seed in args.seeds:
             d = scene_dir(args.workdir, kind, seed, args.duration)
             scenes.append((d, read_doa_csv(d / "gt" / "doa.csv")))
-        rows = []
+        rows: list[Row] = []
         for m in METHODS:
             if m not in LOCALIZERS:
                 continue
-            thr, s, rf = frame_wise(scenes, m, args.skip)
-            rows.append((f"{LABELS[m]} (peaks >= {thr:.3g})", s, rf, False))
+            rows.append(frame_wise(scenes, m, args.skip)[1])
             print(f"  {kind} {m}: done", file=sys.stderr, flush=True)
         for label, name in TRACKERS:
-            s, rf, _ = tracked(scenes, name, args.skip)
-            rows.append((label, s, rf, True))
+            rows.append(tracked(scenes, name, args.skip, label=label))
             if name != "gmphd":
-                thr, s, rf = tracked_roc(scenes, name, args.skip)
-                rows.append((f"{label} (ROC-best δ = {thr:.3g})", s, rf, True))
+                rows.append(tracked_roc(scenes, name, args.skip, label)[1])
             print(f"  {kind} {name}: done", file=sys.stderr, flush=True)
         results[kind] = rows
         out += [
             f"### {title}: seeds {', '.join(map(str, args.seeds))}, {args.duration:g} s each",
             "",
-            "| method | MD rate (%) | FA rate (%) | MAE (°) | IDs | OSPA (°) | RF |",
-            "|---|---:|---:|---:|---:|---:|---:|",
+            "| method | MD rate (%) | FA rate (%) | MAE (°) | IDs | OSPA (°) | lag (frames) "
+            "| RF |",
+            "|---|---:|---:|---:|---:|---:|---:|---:|",
         ]
-        for label, s, rf, is_tracker in rows:
-            d = s.as_dict()
-            ids = str(d["IDs"]) if is_tracker else "-"
+        for r in rows:
+            ids = str(r.total.id_switches) if r.is_tracker else "-"
             out.append(
-                f"| {label} | {d['MD%']:.1f} | {d['FA%']:.1f} | {d['MAE']:.2f} | {ids} "
-                f"| {d['OSPA']:.2f} | {rf:.3f} |"
+                f"| {r.label} | {_cells(r.total)} | {ids} | {r.total.ospa:.2f} | {r.lag:.0f} "
+                f"| {r.rf:.3f} |"
             )
+        out += [
+            "",
+            f"Per seed ({title}): MD / FA / MAE, OSPA, lag (8 ms frames: the shift of the "
+            "ground truth that minimises the MAE; the table's lag is their median).",
+            "",
+            "| method | " + " | ".join(f"seed {s}" for s in args.seeds) + " |",
+            "|---|" + "---|" * len(args.seeds),
+        ]
+        for r in rows:
+            cells = [
+                f"{_cells(s).replace(' | ', ' / ')}, {s.ospa:.2f}, {lg:.0f}"
+                for s, lg in zip(r.per_scene, r.lags, strict=True)
+            ]
+            out.append(f"| {r.label} | " + " | ".join(cells) + " |")
         out.append("")
     out += [
         "### Table 5.3 (LOCATA-like): trackers on the same DPRTF-EG observations",
         "",
-        "| method | MD (%) | FA (%) | MAE (°) | IDs | OSPA (°) |",
-        "|---|---:|---:|---:|---:|---:|",
+        "| method | MD (%) | FA (%) | MAE (°) | IDs | OSPA (°) | lag (frames) |",
+        "|---|---:|---:|---:|---:|---:|---:|",
     ]
-    for label, s, _, is_tracker in results["locata-like"]:
-        if is_tracker:
-            d = s.as_dict()
+    for r in results["locata-like"]:
+        if r.is_tracker:
             out.append(
-                f"| {label} | {d['MD%']:.1f} | {d['FA%']:.1f} | {d['MAE']:.2f} | "
-                f"{d['IDs']} | {d['OSPA']:.2f} |"
+                f"| {r.label} | {_cells(r.total)} | {r.total.id_switches} | "
+                f"{r.total.ospa:.2f} | {r.lag:.0f} |"
             )
     out.append("")
     return out

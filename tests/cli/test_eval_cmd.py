@@ -160,6 +160,33 @@ def test_eval_doa_by_hand(tmp_path, capsys):
     assert "MD% 33.33" in capsys.readouterr().out
 
 
+def test_eval_doa_reports_the_lag_of_late_estimates(tmp_path, capsys):
+    """Estimates of a talker turning at 30°/s, 12 frames (96 ms) late: lag 12."""
+    import json as _json
+
+    from avtrack.io.doa import DOATable, write_doa_csv
+
+    n = 400
+    t = np.arange(n) * 0.008
+    ones = np.ones(n)
+    truth = DOATable(np.arange(n), t, ones.astype(int), -60 + 30 * t, 0 * ones, ones,
+                     ones.astype(bool))  # fmt: skip
+    late = -60 + 30 * np.maximum(t - 12 * 0.008, 0)
+    est = DOATable(np.arange(n), t, -ones.astype(int), late, 0 * ones, ones, ones.astype(bool))
+    write_doa_csv(tmp_path / "gt.csv", truth)
+    write_doa_csv(tmp_path / "est.csv", est)
+    out = tmp_path / "s.json"
+    assert cli_main.main(["eval", "doa", str(tmp_path / "gt.csv"), str(tmp_path / "est.csv"),
+                          "--max-shift", "30", "--json", str(out)]) == 0  # fmt: skip
+    scores = _json.loads(out.read_text())["scores"]
+    assert scores["lag_frames"] == 12
+    assert scores["lag_s"] == pytest.approx(0.096)
+    assert scores["MAE_at_lag"] < 0.01 < scores["MAE"]
+    assert "lag 12 frames (96 ms)" in capsys.readouterr().out
+    assert cli_main.main(["eval", "doa", str(tmp_path / "gt.csv"), str(tmp_path / "est.csv"),
+                          "--max-shift", "-1"]) == 2  # fmt: skip
+
+
 def test_eval_doa_bad_input(tmp_path, capsys):
     (tmp_path / "gt.csv").write_text("frame,time_s\n")
     assert cli_main.main(["eval", "doa", str(tmp_path / "gt.csv"), str(tmp_path / "gt.csv")]) == 2

@@ -13,6 +13,7 @@ from avtrack.localize.cgmm_eg import (
     cgmm_likelihood_ratios,
     decay_to_uniform,
     eg_update,
+    evidence_change,
     spatial_smoothing,
 )
 from avtrack.localize.grid import DirectionGrid
@@ -98,8 +99,50 @@ def test_spatial_smoothing_hand_case_wraps_around():
         ({"step": -1.0}, "step must be"),
         ({"silence_rate": 1.5}, "silence_rate must be <= 1"),
         ({"dprtf": {}}, "dprtf must be a DPRTFConfig"),
+        ({"share": 1.5}, "share must be <= 1"),
+        ({"share": -0.1}, "share must be a finite number >= 0"),
+        ({"step_boost": float("nan")}, "step_boost must be a finite number >= 0"),
+        ({"output_silence_rate": 0.0}, "output_silence_rate must be a finite number > 0"),
+        ({"output_silence_rate": 2.0}, "output_silence_rate must be <= 1"),
     ],
 )
 def test_config_validation(kwargs, match):
     with pytest.raises((ValueError, TypeError), match=match):
         EGConfig(**kwargs)
+
+
+def test_evidence_change_hand_cases():
+    w = np.array([0.7, 0.1, 0.1, 0.1])
+    # features that only the first direction explains: posterior = (1, 0, 0, 0)
+    ratios = np.array([[1 / 0.7, 0, 0, 0]] * 3)
+    assert evidence_change(w, ratios) == pytest.approx(0.3)
+    # features spread like the weights themselves: ratio 1 everywhere, no change
+    assert evidence_change(w, np.ones((2, 4))) == pytest.approx(0.0, abs=1e-15)
+    # features from the second direction only: posterior (0, 1, 0, 0)
+    assert evidence_change(w, np.array([[0, 10.0, 0, 0]])) == pytest.approx(0.9)
+
+
+def _eg(config):
+    from avtrack.audio.arrays import builtin_array
+    from avtrack.localize import make_localizer
+
+    return make_localizer("dprtf-eg", builtin_array("nao4"), DirectionGrid.azimuths(90.0), config)
+
+
+def test_fixed_share_keeps_a_floor_and_adaptive_step_moves_faster():
+    ratios = np.array([[0.0, 1 / 0.1, 0.0, 0.0]] * 4)  # the talker is where w is small
+    w = np.array([0.7, 0.1, 0.1, 0.1])
+    plain = _eg(EGConfig(smoothing=0.0))._update(w, ratios)
+    boosted = _eg(EGConfig(smoothing=0.0, step_boost=10.0))._update(w, ratios)
+    assert boosted[1] > plain[1] and boosted[0] < plain[0]  # the step grew with the change
+    np.testing.assert_allclose(plain, eg_update(w, ratios, 0.07, 0.1))
+    shared = _eg(EGConfig(share=0.04))._update(np.array([1.0, 0, 0, 0]), np.ones((1, 4)))
+    assert shared.min() >= 0.04 / 4 and shared.sum() == pytest.approx(1.0)
+
+
+def test_evidence_gated_output_relaxes_without_features():
+    loc = _eg(EGConfig(output_silence_rate=0.5))
+    w = np.array([0.7, 0.1, 0.1, 0.1])
+    np.testing.assert_array_equal(loc._emit(w, True), w)
+    np.testing.assert_allclose(loc._emit(np.full(4, 9.0), False), 0.5 * w + 0.5 / 4)
+    assert _eg(EGConfig())._emit(w, False) is w  # the thesis: the heat map is w_t

@@ -159,3 +159,40 @@ def test_bad_arguments():
         evaluate_doa(t, t, period_s=0.0)
     with pytest.raises(ValueError, match="finite"):
         greedy_match(np.array([np.nan]), np.array([0.0]))
+
+
+def _moving(n: int, speed_deg_s: float, period: float = 0.008, delay: int = 0) -> DOATable:
+    """A talker turning at ``speed_deg_s`` from -60°, reported ``delay`` frames late."""
+    frames = np.arange(n)
+    t = frames * period
+    az = -60.0 + speed_deg_s * np.maximum(t - delay * period, 0.0)
+    ones = np.ones(n)
+    return DOATable(frames, t, ones.astype(int), az, 0 * ones, ones, ones.astype(bool))
+
+
+@pytest.mark.parametrize("delay", [0, 7, 30, -5])
+def test_estimate_lag_finds_a_hand_built_shift(delay):
+    from avtrack.metrics.doa import estimate_lag
+
+    truth = _moving(500, 30.0)
+    est = _moving(500, 30.0, delay=delay)
+    res = estimate_lag(est, truth, max_shift_frames=40)
+    assert res.lag_frames == delay
+    assert res.lag_s == pytest.approx(delay * 0.008)
+    assert res.mae[res.shifts == delay][0] < 0.05
+    if delay:
+        assert res.mae_at_zero == pytest.approx(abs(delay) * 0.008 * 30.0, rel=0.05)
+
+
+def test_estimate_lag_of_a_still_talker_is_zero_and_bad_input_raises():
+    from avtrack.metrics.doa import estimate_lag
+
+    truth = _moving(100, 0.0)
+    assert estimate_lag(truth, truth, max_shift_frames=10).lag_frames == 0
+    for bad in (-1, 2.5, True):
+        with pytest.raises(ValueError, match="max_shift_frames"):
+            estimate_lag(truth, truth, max_shift_frames=bad)
+    far = DOATable(truth.frames, truth.time_s, truth.ids, truth.azimuth_deg + 90,
+                   truth.elevation_deg, truth.weight, truth.active)  # fmt: skip
+    with pytest.raises(ValueError, match="no successful estimate"):
+        _ = estimate_lag(far, truth, max_shift_frames=3).lag_frames

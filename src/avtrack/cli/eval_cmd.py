@@ -136,6 +136,22 @@ time.""",
     doa.add_argument(
         "--success-deg", type=float, default=15.0, metavar="DEG", help="default: %(default)s"
     )
+    doa.add_argument(
+        "--max-shift",
+        type=int,
+        default=75,
+        metavar="FRAMES",
+        help="the lag (the time shift of the ground truth, in frames of --period, that "
+        "minimises the MAE; > 0: the estimates come late) is searched within ±FRAMES "
+        "(default: %(default)s; 0: no lag)",
+    )
+    doa.add_argument(
+        "--period",
+        type=float,
+        default=0.008,
+        metavar="SECONDS",
+        help="frame period used to align the files by time (default: %(default)s)",
+    )
     doa.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
     add_common(doa, run_doa)
     add_config_option(doa)
@@ -204,19 +220,34 @@ examples:
 
 
 def run_doa(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from avtrack.io.doa import read_doa_csv
-    from avtrack.metrics.doa import evaluate_doa, roc_sweep
+    from avtrack.metrics.doa import estimate_lag, evaluate_doa, roc_sweep
 
     if not args.success_deg > 0:
         raise InputError(f"--success-deg must be > 0, got {args.success_deg}")
+    if not 0 <= args.max_shift <= 2000:
+        raise InputError(f"--max-shift must be an integer in [0, 2000], got {args.max_shift}")
+    if not (args.period > 0 and args.period < float("inf")):
+        raise InputError(f"--period must be a number of seconds > 0, got {args.period}")
     truth = read_doa_csv(args.gt)
     est = read_doa_csv(args.estimates)
+    kw = {"success_deg": args.success_deg, "period_s": args.period}
     if args.roc:
-        threshold, scores = roc_sweep(est, truth, success_deg=args.success_deg).best
+        threshold, scores = roc_sweep(est, truth, **kw).best
     else:
         threshold = args.threshold
-        scores = evaluate_doa(est, truth, success_deg=args.success_deg, threshold=threshold)
+        scores = evaluate_doa(est, truth, threshold=threshold, **kw)
     d = scores.as_dict()
+    lag = None
+    if args.max_shift:
+        res = estimate_lag(est, truth, max_shift_frames=args.max_shift, threshold=threshold, **kw)
+        if np.any(np.isfinite(res.mae)):
+            lag = res.lag_frames
+            d["lag_frames"] = lag
+            d["lag_s"] = res.lag_s
+            d["MAE_at_lag"] = float(res.mae[res.shifts == lag][0])
     if args.json is not None:
         with atomic_write(args.json) as fh:
             record = {"gt": str(args.gt), "estimates": str(args.estimates),
@@ -227,7 +258,14 @@ def run_doa(args: argparse.Namespace) -> int:
         which = "active rows" if threshold is None else f"weight >= {threshold:.4g}"
         print(f"DOA scores of {args.estimates} against {args.gt} ({which}):")
         print("  " + "  ".join(f"{k} {v:.2f}" if isinstance(v, float) else f"{k} {v}"
-                               for k, v in d.items()))  # fmt: skip
+                               for k, v in scores.as_dict().items()))  # fmt: skip
+        if args.max_shift:
+            if lag is None:
+                print("  lag: no successful estimate")
+            else:
+                edge = " (at the edge of --max-shift)" if abs(lag) == args.max_shift else ""
+                print(f"  lag {lag} frames ({1000 * d['lag_s']:.0f} ms){edge}: MAE "
+                      f"{d['MAE_at_lag']:.2f} with the ground truth shifted by it")  # fmt: skip
     return 0
 
 

@@ -123,6 +123,17 @@ def eg_update(weights: np.ndarray, ratios: np.ndarray, step: float, entropy: flo
     return w / w.sum()  # w_t = r w / sum(r w)                      (eq. 5.19)
 
 
+def evidence_change(weights: np.ndarray, ratios: np.ndarray) -> float:
+    """How far the frame's features move the weights: ``TV(p, w) = ½ Σ_d |p_d − w_d|`` in
+    [0, 1], with ``p_d = w_d (1/K) Σ_k ratios_kd`` the mean posterior of the frame's features
+    over the directions (the responsibilities of eq. 5.16 under ``w_{t-1}``; ``p`` sums to
+    one). Near 0 when the features agree with the weights, near 1 when they come from
+    directions the weights do not hold.
+    """
+    post = weights * ratios.mean(axis=0)
+    return float(0.5 * np.abs(post - weights).sum())
+
+
 def decay_to_uniform(weights: np.ndarray, rate: float) -> np.ndarray:
     """Silent frame: ``w_t = (1 - eta') w_{t-1} + eta' / D`` (thesis §5.3.2)."""
     return (1.0 - rate) * weights + rate / weights.shape[-1]
@@ -157,6 +168,21 @@ class EGConfig:
         ``eta'``, relaxation to uniform in frames without features (0.065).
     smoothing : float
         Spatial smoothing coefficient (0.02).
+    share : float
+        ``alpha`` of a fixed-share step after each EG update, ``w <- (1 - alpha) w + alpha / D``
+        (Herbster & Warmuth, "Tracking the best expert", 1998); not in the thesis (0 there).
+        It keeps every weight above ``alpha / D``, so a talker who appears where the weights
+        were near zero is picked up in a few frames.
+    step_boost : float
+        ``kappa`` of the adaptive step ``eta_t = eta (1 + kappa TV(p_t, w_{t-1}))``
+        (:func:`evidence_change`): slow while the features agree with the weights, up to
+        ``(1 + kappa) eta`` when they come from elsewhere (a talker who moves or starts). Not
+        in the thesis (0 there: a fixed ``eta``).
+    output_silence_rate : float or None
+        None (the thesis): the heat map is ``w_t``. A rate in (0, 1]: in frames with fewer
+        than ``min_features`` features the heat map relaxes to uniform at this rate, from the
+        last map that had evidence, while the weights keep their slower ``eta'`` memory for
+        the next frame with features (evidence-gated output).
     min_features : int
         Frames with fewer features are treated as silent (relax to uniform); 20 by default,
         chosen on simulated rooms. The thesis relaxes only when there is no feature at all
@@ -173,6 +199,9 @@ class EGConfig:
     silence_rate: float = 0.065
     smoothing: float = 0.02
     min_features: int = 20
+    share: float = 0.0
+    step_boost: float = 0.0
+    output_silence_rate: float | None = None
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
 
     def __post_init__(self) -> None:
@@ -180,7 +209,14 @@ class EGConfig:
         _positive("EGConfig", "variance", self.variance)
         _positive("EGConfig", "step", self.step)
         _positive("EGConfig", "entropy", self.entropy, allow_zero=True)
-        for name in ("silence_rate", "smoothing"):
+        _positive("EGConfig", "step_boost", self.step_boost, allow_zero=True)
+        if self.output_silence_rate is not None:
+            _positive("EGConfig", "output_silence_rate", self.output_silence_rate)
+            if self.output_silence_rate > 1:
+                raise ValueError(
+                    f"EGConfig: output_silence_rate must be <= 1, got {self.output_silence_rate!r}"
+                )
+        for name in ("silence_rate", "smoothing", "share"):
             _positive("EGConfig", name, getattr(self, name), allow_zero=True)
             if getattr(self, name) > 1:
                 raise ValueError(f"EGConfig: {name} must be <= 1, got {getattr(self, name)!r}")
@@ -221,13 +257,20 @@ class CGMMLocalizer(Localizer):
             if k and k >= cfg.min_features:
                 ratios = cgmm_likelihood_ratios(values[valid], self._means[valid], w, cfg.variance)
                 w = self._update(w, ratios)
+                evidence = True
             else:
                 w = decay_to_uniform(w, cfg.silence_rate)
+                evidence = False
             w = spatial_smoothing(w, self.grid, cfg.smoothing)
-            out[t] = w
+            out[t] = self._emit(w, evidence)
             n_obs[t] = k
         self.weights = w
         return out, n_obs
+
+    def _emit(self, weights: np.ndarray, evidence: bool) -> np.ndarray:
+        """The heat map of a frame from ``w_t`` and whether the frame had enough features
+        (by default the weights themselves)."""
+        return weights
 
     @abstractmethod
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
@@ -245,5 +288,23 @@ class DPRTFEG(CGMMLocalizer):
     Config: ClassVar[type] = EGConfig
     default_threshold: ClassVar[float] = 0.03
 
+    def _reset_state(self) -> None:
+        super()._reset_state()
+        self._heat = self.weights.copy()
+
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
-        return eg_update(weights, ratios, self.config.step, self.config.entropy)
+        cfg = self.config
+        step = cfg.step
+        if cfg.step_boost:
+            step *= 1.0 + cfg.step_boost * evidence_change(weights, ratios)
+        w = eg_update(weights, ratios, step, cfg.entropy)
+        if cfg.share:
+            w = decay_to_uniform(w, cfg.share)  # fixed share (Herbster & Warmuth 1998)
+        return w
+
+    def _emit(self, weights: np.ndarray, evidence: bool) -> np.ndarray:
+        rate = self.config.output_silence_rate
+        if rate is None:
+            return weights
+        self._heat = weights if evidence else decay_to_uniform(self._heat, rate)
+        return self._heat

@@ -166,19 +166,22 @@ def _padded(keys: np.ndarray, values: np.ndarray, frame_keys: np.ndarray, fill: 
 class _Aligned:
     """Estimates and actual speakers grouped per frame, padded with NaN."""
 
-    def __init__(self, est: DOATable, truth: DOATable, period_s: float, time_range_s):
+    def __init__(
+        self, est: DOATable, truth: DOATable, period_s: float, time_range_s, truth_shift: int = 0
+    ):
         if not (isinstance(est, DOATable) and isinstance(truth, DOATable)):
             raise TypeError("evaluate_doa: estimates and truth must be DOATables")
         if not (isinstance(period_s, int | float) and period_s > 0):
             raise ValueError(f"evaluate_doa: period_s must be > 0, got {period_s!r}")
-        ek, tk = _keys(est, period_s), _keys(truth, period_s)
+        ek, tk = _keys(est, period_s), _keys(truth, period_s) + truth_shift
         keep_e = np.ones(len(est), dtype=bool)
         keep_t = truth.active.copy()
         frames_t = np.ones(len(truth), dtype=bool)
         if time_range_s is not None:
             lo, hi = time_range_s
+            t_time = truth.time_s + truth_shift * period_s
             keep_e &= (est.time_s >= lo) & (est.time_s <= hi)
-            frames_t &= (truth.time_s >= lo) & (truth.time_s <= hi)
+            frames_t &= (t_time >= lo) & (t_time <= hi)
             keep_t &= frames_t
         self.frame_keys = np.unique(np.r_[ek[keep_e], tk[frames_t]])
         self.est_az = _padded(ek[keep_e], est.azimuth_deg[keep_e], self.frame_keys, np.nan)
@@ -313,3 +316,89 @@ def roc_sweep(
     aligned = _Aligned(estimates, truth, period_s, time_range_s)
     scores = tuple(_score(aligned, aligned.est_w >= t, success_deg) for t in thr)
     return ROCCurve(thr, scores)
+
+
+@dataclass(frozen=True)
+class LagResult:
+    """How late the estimates are: the time shift of the ground truth that minimises the MAE.
+
+    Attributes
+    ----------
+    shifts : ndarray (S,) int
+        Shifts tried, in frames of ``period_s``; shift ``s`` compares the estimates at frame
+        ``k`` with the ground truth at frame ``k - s`` (``s > 0``: the estimates come late).
+    mae : ndarray (S,)
+        MAE (degrees) at each shift (NaN where nothing succeeds).
+    period_s : float
+        The frame period.
+    """
+
+    shifts: np.ndarray
+    mae: np.ndarray
+    period_s: float
+
+    @property
+    def lag_frames(self) -> int:
+        """The shift with the smallest MAE (the one nearest 0 among equals)."""
+        if not np.any(np.isfinite(self.mae)):
+            raise ValueError("estimate_lag: no successful estimate at any shift")
+        best = np.nanmin(self.mae)
+        cand = self.shifts[self.mae <= best]
+        return int(cand[np.argmin(np.abs(cand))])
+
+    @property
+    def lag_s(self) -> float:
+        """:attr:`lag_frames` in seconds."""
+        return self.lag_frames * self.period_s
+
+    @property
+    def mae_at_zero(self) -> float:
+        """The MAE without shift (NaN when 0 is not among the shifts)."""
+        zero = self.shifts == 0
+        return float(self.mae[zero][0]) if zero.any() else float("nan")
+
+
+def estimate_lag(
+    estimates: DOATable,
+    truth: DOATable,
+    *,
+    max_shift_frames: int = 75,
+    success_deg: float = SUCCESS_DEG,
+    threshold: float | None = None,
+    period_s: float = FRAME_PERIOD_S,
+    time_range_s: tuple[float, float] | None = None,
+) -> LagResult:
+    """The lag of DOA estimates behind the ground truth (issue 23's lag measure).
+
+    The ground truth is shifted later in time by ``s`` frames, ``s = -max_shift_frames ..
+    max_shift_frames``, and scored by :func:`evaluate_doa` (thesis §5.5.1) at each shift; the
+    lag is the shift with the smallest MAE. An estimator that reports a talker's direction
+    ``L`` frames late has its MAE minimum at ``s = L``.
+
+    Parameters
+    ----------
+    estimates, truth : DOATable
+        As for :func:`evaluate_doa` (estimates: ``active`` rows, or ``weight >= threshold``).
+    max_shift_frames : int
+        Largest shift tried, each way (75 frames = 0.6 s at 8 ms).
+    success_deg, threshold, period_s, time_range_s
+        As for :func:`evaluate_doa`.
+    """
+    if isinstance(max_shift_frames, bool) or not isinstance(max_shift_frames, int | np.integer):
+        raise ValueError(
+            f"estimate_lag: max_shift_frames must be an integer, got {max_shift_frames!r}"
+        )
+    if max_shift_frames < 0:
+        raise ValueError(f"estimate_lag: max_shift_frames must be >= 0, got {max_shift_frames}")
+    if not (isinstance(success_deg, int | float) and success_deg > 0):
+        raise ValueError(f"estimate_lag: success_deg must be > 0, got {success_deg!r}")
+    shifts = np.arange(-int(max_shift_frames), int(max_shift_frames) + 1)
+    mae = np.empty(shifts.size)
+    for i, s in enumerate(shifts):
+        aligned = _Aligned(estimates, truth, period_s, time_range_s, int(s))
+        if threshold is None:
+            mask = aligned.est_active & ~np.isnan(aligned.est_az)
+        else:
+            mask = aligned.est_w >= threshold
+        mae[i] = _score(aligned, mask, success_deg).mae
+    return LagResult(shifts, mae, float(period_s))
