@@ -167,7 +167,13 @@ class EGConfig:
     silence_rate : float
         ``eta'``, relaxation to uniform in frames without features (0.065).
     smoothing : float
-        Spatial smoothing coefficient (0.02).
+        Spatial smoothing coefficient (0.02, thesis §5.3.2). It also sets how fast a peak of
+        ``w`` can move: the log-domain step of eq. 5.18 shifts a peak of width ``s`` by about
+        ``s^2 eta`` times the slope of the likelihood ratios, so sharp weights follow a moving
+        talker slowly. Read as the prediction step of a random walk over the candidate
+        directions (a fixed share restricted to neighbouring directions), a larger coefficient
+        widens the peaks and roughly halves the lag on moving talkers (0.25: BENCHMARKS.md,
+        issue 23), at a cost in miss rate on LOCATA-like scenes.
     share : float
         ``alpha`` of a fixed-share step after each EG update, ``w <- (1 - alpha) w + alpha / D``
         (Herbster & Warmuth, "Tracking the best expert", 1998); not in the thesis (0 there).
