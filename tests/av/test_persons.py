@@ -247,3 +247,27 @@ def test_elevation_stays_a_latitude():
     tracker.mu[:, 1], tracker.mu[:, 3] = 89.0, 3.0
     out = tracker.step(np.zeros(0, int), np.zeros((0, 4)), None, np.zeros(0))
     assert out.elevation_deg[0] == 90.0 and tracker.mu[0, 1] == 90.0
+
+
+def test_image_shows_a_person_only_while_the_camera_confirms_them():
+    """A person seen at 0 deg for 50 frames, then missed by the detector for 20 frames while
+    still talking in view: the image position is held for image_hold_s, then withdrawn (the
+    person keeps its identity and direction); seen again, it is back at once."""
+    geo = geometry(60.0)
+    box = head_box(geo, 0.0)
+    seen = (np.array([7]), box, None, np.array([0.0]))
+    missed = (np.zeros(0, int), np.zeros((0, 4)), None, np.array([0.0]))
+    frames = [seen] * 50 + [missed] * 20 + [seen] * 5
+    for hold_s, held in ((0.1, 2), (0.0, 0), (0.4, 10)):
+        tracker = PersonTracker(geo, PersonConfig(image_hold_s=hold_s), fps=25.0)
+        outs = run_frames(tracker, frames)
+        assert {int(i) for o in outs for i in o.ids} == {1}
+        shown = [bool(o.in_view[0]) and bool(np.isfinite(o.pixels[0]).all()) for o in outs]
+        assert all(shown[:50]) and all(shown[70:])
+        assert shown[50:70] == [True] * held + [False] * (20 - held), hold_s
+        assert all(abs(o.azimuth_deg[0]) < 3.0 for o in outs[50:70])  # still tracked
+
+
+def test_image_hold_must_not_be_negative():
+    with pytest.raises(ValueError, match="image_hold_s"):
+        PersonConfig(image_hold_s=-0.1)

@@ -129,6 +129,13 @@ class PersonConfig:
         ``exclusion_margin_deg`` outside it (the camera would see them there), and a
         velocity pointing back into the view is dropped.
     exclusion_margin_deg : float
+    image_hold_s : float
+        A person is given an image position (``pixels``, ``in_view``) while the camera has
+        seen them within this long: as SORT reports a track only on frames a detection
+        updated it, the image shows what the camera confirms. Between, the person keeps its
+        direction (and is still heard, tracked and scored out of view); a hold of a few
+        frames bridges single missed detections. 0 gives positions only on frames with a
+        linked visual track.
     death_s, tentative_death_s, established_s : float
         See the module docstring.
     unseen_in_view_death_s : float
@@ -170,6 +177,7 @@ class PersonConfig:
     lost_frames: int = 5
     exclusion_s: float = 1.0
     exclusion_margin_deg: float = 6.0
+    image_hold_s: float = 0.1
     lost_noise_deg: float = 3.0
     lost_max_std_deg: float = 25.0
     death_s: float = 15.0
@@ -234,8 +242,10 @@ class PersonConfig:
             v = getattr(self, name)
             if not -1 <= v <= 1:
                 raise ValueError(f"PersonConfig.{name} must be in [-1, 1], got {v!r}")
-        if self.established_s < 0 or self.birth_separation_deg < 0:
-            raise ValueError("PersonConfig.established_s and birth_separation_deg must be >= 0")
+        if self.established_s < 0 or self.birth_separation_deg < 0 or self.image_hold_s < 0:
+            raise ValueError(
+                "PersonConfig.established_s, birth_separation_deg and image_hold_s must be >= 0"
+            )
 
 
 @dataclass(frozen=True)
@@ -541,10 +551,13 @@ class PersonTracker:
         self.mu[:, 1] = np.clip(self.mu[:, 1], -90.0, 90.0)
         el = self.mu[:, 1]
         px, inside = self.geometry.directions_to_pixels(az, el, self.distance)
-        # Where the camera looks and has not seen a person for exclusion_s, the person is not
-        # (the exclusion above moves them out of an azimuth wedge, which only describes the
-        # view of a camera at the array; a camera metres away needs this too).
-        inside &= self.unseen_run < c.exclusion_s * self.fps
+        # The image shows a person while the camera confirms them: seen within image_hold_s
+        # (SORT's output rule, with a hold of a few frames). Where the camera looks and has
+        # not seen a person, the person is not: the exclusion above moves them out of an
+        # azimuth wedge, which only describes the view of a camera at the array; a camera
+        # metres away (AV16.3) needs this too, or tracks carried by audio and fragments of
+        # visual tracks stand in the image beside the persons the camera does see.
+        inside &= self.unseen_run <= min(c.image_hold_s, c.exclusion_s) * self.fps
         px = np.where(inside[:, None], px, np.nan)
         in_view = inside & (px[:, 0] >= self.fov[0]) & (px[:, 0] <= self.fov[1])
         alive = set(self.ids.tolist())

@@ -56,8 +56,9 @@ AV16.3 (the sequence's real video; array 1's DOA measurements; the calibration m
 
 Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes of persons seen in the
 image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked person every
-frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y empty outside the
-image), OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --no-audio),
+frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y and in_view
+only while the camera shows the person: in the image and seen in the last 0.1 s),
+OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --no-audio),
 OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
 image --plot); with --video (a recording of your own, AV16.3), OUT_DIR/index.html and
 OUT_DIR/tracks.webm: the tracks over the video's own frames (--no-report: not written).
