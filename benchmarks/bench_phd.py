@@ -29,6 +29,7 @@ Usage::
     python benchmarks/bench_phd.py --vem
     python benchmarks/bench_phd.py --vem --clutter-rate 0.5  # + false alarms, DOA outliers
     python benchmarks/bench_phd.py --set coast_frames=6 birth_mass=0.1  # PHDConfig fields
+    python benchmarks/bench_phd.py --set marginal_weights=false resample_rule=label  # before
 """
 
 from __future__ import annotations
@@ -165,7 +166,10 @@ def main(argv: list[str] | None = None) -> int:
     for item in args.set:
         k, v = item.split("=", 1)
         cur = getattr(config, k)
-        over[k] = v if isinstance(cur, str) else int(v) if isinstance(cur, int) else float(v)
+        if isinstance(cur, bool):
+            over[k] = v.lower() in ("1", "true", "yes")
+        else:
+            over[k] = v if isinstance(cur, str) else int(v) if isinstance(cur, int) else float(v)
     if args.clutter_rate:
         over.setdefault("clutter_visual", config.clutter_visual + args.clutter_rate)
         over.setdefault("clutter_audio", config.clutter_audio + args.clutter_rate)

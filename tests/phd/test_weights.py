@@ -9,7 +9,14 @@ import numpy as np
 import pytest
 
 from avtrack.phd import LPFSMCPHD, NPFSMCPHD, PHDConfig
-from avtrack.phd.flow import affine_flow, affine_flow_map, flow_steps, log_gaussian, mixture_flow
+from avtrack.phd.flow import (
+    affine_flow,
+    affine_flow_map,
+    flow_steps,
+    log_gaussian,
+    marginal_log_weights,
+    mixture_flow,
+)
 from avtrack.phd.likelihood import add_clutter, make_frame
 from avtrack.phd.smc_phd import constant_velocity, log_pair_norm, measurement_model
 from tests.phd.conftest import line_through
@@ -92,6 +99,39 @@ def test_transition_prior_with_unit_diffusion_gives_the_optimal_proposal():
     )
     want = log_gaussian(z[None], parent_mean[None, :2], Q[:2, :2] + 16.0 * np.eye(2))[0]
     np.testing.assert_allclose(log_w, want, atol=0.02)
+
+
+def test_marginal_weight_of_one_parent_is_the_per_parent_weight():
+    rng = np.random.default_rng(6)
+    _, Q = constant_velocity(2.0, 0.5, 0.8)
+    x, mu, qm = rng.normal(size=(3, 1, 4))
+    cov = 0.5 * Q + 0.1 * np.eye(4)
+    got = marginal_log_weights(x, np.log([0.3]), mu, Q, qm, cov)
+    want = np.log(0.3) + log_gaussian(x, mu, Q) - log_gaussian(x, qm, cov)
+    np.testing.assert_allclose(got, want, atol=1e-12)
+
+
+def test_marginal_weights_are_unbiased_for_the_predicted_intensity():
+    # parents with unequal weights, one draw from each parent's own proposal: the weights
+    # u_i = D(m_i) / sum_j q_j(m_i) estimate int D = sum w and int m D = sum w F m_{k-1}
+    rng = np.random.default_rng(7)
+    _, Q = constant_velocity(2.0, 0.5, 0.8)
+    n = 6
+    mu = rng.normal(scale=3.0, size=(n, 4))  # F m_{k-1}^j
+    w = rng.uniform(0.05, 0.4, size=n)
+    M = np.diag([0.9, 0.9, 1.0, 1.0])
+    c = np.array([1.0, -0.5, 0.1, 0.0])
+    q_mean = mu @ M.T + c
+    q_cov = 1.5 * Q  # wider than phi: bounded weights, so 4000 runs estimate the mean well
+    L = np.linalg.cholesky(q_cov)
+    mass, first = [], []
+    for _ in range(4000):
+        x = q_mean + rng.standard_normal((n, 4)) @ L.T
+        u = np.exp(marginal_log_weights(x, np.log(w), mu, Q, q_mean, q_cov))
+        mass.append(u.sum())
+        first.append(u @ x)
+    assert np.mean(mass) == pytest.approx(w.sum(), rel=0.02)
+    np.testing.assert_allclose(np.mean(first, axis=0), w @ mu, atol=0.06 * np.abs(w @ mu).max())
 
 
 def test_flow_map_bad_shapes():

@@ -57,6 +57,8 @@ The --config YAML holds PHDConfig fields, e.g.:
   particles_per_target: 50
   sigma_visual: 4.0
   flow_weights: proposal
+  marginal_weights: true
+  resample_rule: population
   coast_frames: 0
 """
 

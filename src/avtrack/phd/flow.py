@@ -323,3 +323,83 @@ def log_gaussian(x: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray
     e = np.linalg.solve(L, (x - mean)[:, :, None])[:, :, 0]
     log_det = 2 * np.sum(np.log(np.diagonal(L, axis1=1, axis2=2)), axis=1)
     return -0.5 * (np.sum(e * e, axis=1) + log_det + dim * np.log(2 * np.pi))
+
+
+def pairwise_log_gaussian(x: np.ndarray, means: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """``log N(x_i; mean_j, cov)`` for every pair ``(i, j)`` with one shared covariance.
+
+    Parameters
+    ----------
+    x : ndarray (N, M)
+    means : ndarray (K, M)
+    cov : ndarray (M, M)
+        Symmetric positive definite.
+
+    Returns
+    -------
+    ndarray (N, K)
+    """
+    x = np.asarray(x, dtype=float)
+    dim = x.shape[1]
+    L = np.linalg.cholesky(cov)
+    L_inv = np.linalg.inv(L)
+    e = (x[:, None, :] - means[None, :, :]) @ L_inv.T  # whitened differences (N, K, M)
+    log_det = 2 * np.sum(np.log(np.diag(L)))
+    return -0.5 * (np.sum(e * e, axis=2) + log_det + dim * np.log(2 * np.pi))
+
+
+def _logsumexp_rows(a: np.ndarray) -> np.ndarray:
+    top = np.max(a, axis=1, keepdims=True)
+    top = np.where(np.isfinite(top), top, 0.0)
+    with np.errstate(divide="ignore"):
+        return np.log(np.sum(np.exp(a - top), axis=1)) + top[:, 0]
+
+
+def marginal_log_weights(
+    x: np.ndarray,
+    log_w: np.ndarray,
+    transition_mean: np.ndarray,
+    Q: np.ndarray,
+    proposal_mean: np.ndarray,
+    proposal_cov: np.ndarray,
+) -> np.ndarray:
+    """Log importance weights of particles drawn one per parent from a family of proposals,
+    for the predicted intensity of those parents (deterministic-mixture weights).
+
+    Particle ``i`` was drawn from its own parent's proposal
+    ``q_i = N(proposal_mean_i, proposal_cov)``; its weight for the predicted PHD of the
+    group, ``D(m) = sum_j w_j N(m; transition_mean_j, Q)`` (eq. 4's numerator summed over
+    the parents, the seed's ``phi(m | m_{k-1}^j) w_{k-1}^j``), is::
+
+        u_i = D(m_i) / sum_j q_j(m_i)
+
+    (Veach and Guibas 1995, balance heuristic; Klaas, de Freitas and Doucet 2005, the
+    marginal particle filter; Elvira et al. 2019, deterministic-mixture MIS). For any
+    function ``g``, ``E[sum_i u_i g(m_i)] = sum_i int q_i g D / sum_j q_j = int g D``: the
+    weights are unbiased for the predicted intensity, the quantity the PHD update needs (it
+    never needs the particles' paths), and far less spread than the per-parent ratio
+    ``w_i phi(m_i | m_{k-1}^i) / q_i(m_i)``, which carries the spread of the parents.
+
+    Parameters
+    ----------
+    x : ndarray (N, M)
+        The drawn particles ``m_k``.
+    log_w : ndarray (N,)
+        ``log w_{k|k-1}`` of the parents (one parent per particle, same order).
+    transition_mean : ndarray (N, M)
+        ``F m_{k-1}`` of each parent.
+    Q : ndarray (M, M)
+        Transition covariance.
+    proposal_mean : ndarray (N, M)
+        Mean of each parent's proposal.
+    proposal_cov : ndarray (M, M)
+        Covariance of the proposals (shared by the group).
+
+    Returns
+    -------
+    ndarray (N,)
+        ``log u_i``.
+    """
+    log_d = pairwise_log_gaussian(x, transition_mean, Q) + log_w[None, :]
+    log_q = pairwise_log_gaussian(x, proposal_mean, proposal_cov)
+    return _logsumexp_rows(log_d) - _logsumexp_rows(log_q)

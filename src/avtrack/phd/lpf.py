@@ -20,9 +20,12 @@ the default ``flow_weights="proposal"``:
   Gaussian map per label (:func:`~avtrack.phd.flow.affine_flow_map`);
 - weights follow eqs. 22–23 with density likelihoods and clutter intensities
   (:func:`~avtrack.phd.smc_phd.measurement_model`) and the importance weight of the flow
-  actually run, ``phi(m_k | m_{k-1}) / q(m_k | m_{k-1})``;
+  actually run: for the label's predicted intensity against the mixture of its parents'
+  flows, ``sum_j w_j phi(m_k | m_{k-1}^j) / sum_j q(m_k | m_{k-1}^j)``
+  (``marginal_weights``, default), or per parent ``phi(m_k | m_{k-1}) / q(m_k | m_{k-1})``;
 - a speaker is a label whose weight on its measurement (eq. 25) is at least ``xi``, at its
-  particles' weighted mean (eq. 24); each label is resampled on its own. No clustering.
+  particles' weighted mean (eq. 24); resampling follows Algorithm 1's ESS test over all the
+  particles (``resample_rule``), each label resampled on its own. No clustering.
 
 The legacy ``flow_weights`` ("transition", "gaussian", "none") keep the seed's per-particle
 labels with eq. 17's random ``p_D`` drop, eqs. 18–20's covariance, peak-1 kernels with the
@@ -38,7 +41,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from avtrack.phd.base import register_phd_filter
-from avtrack.phd.flow import affine_flow, affine_flow_map, log_gaussian
+from avtrack.phd.flow import affine_flow, affine_flow_map, log_gaussian, marginal_log_weights
 from avtrack.phd.likelihood import AVFrame, audio_information, visual_information
 from avtrack.phd.smc_phd import (
     STATE_DIM,
@@ -207,7 +210,8 @@ class LPFSMCPHD(SMCPHDFilter):
         if n and n_r and not legacy:  # the label's measurement, where the particle is gated
             r_of = np.array([self._assoc.get(int(t), -1) for t in pred.tids], dtype=np.int64)
             has = r_of >= 0
-            has[has] = pred.gated[np.flatnonzero(has), r_of[has]]
+            if not cfg.marginal_weights:  # else the whole label flows (one proposal family)
+                has[has] = pred.gated[np.flatnonzero(has), r_of[has]]
             meas[has] = r_of[has]
         elif n and n_r:
             score = np.where(pred.gated, pred.log_audio + pred.log_visual, -np.inf)
@@ -255,6 +259,16 @@ class LPFSMCPHD(SMCPHDFilter):
                 log_rho[det] = log_gaussian(m_k, pred.mean[det], self.Q) - log_gaussian(
                     m_k, q_mean, q_cov[group]
                 )
+                if cfg.marginal_weights:  # one proposal per parent, weighted for the label's
+                    # predicted intensity sum_j w_j phi(m | m_{k-1}^j) (eqs. 4 and 22)
+                    log_w = np.log(np.maximum(pred.weights[det], 1e-300))
+                    log_u = np.empty(len(x))
+                    for g in range(len(ukey)):
+                        sel = group == g
+                        log_u[sel] = marginal_log_weights(
+                            m_k[sel], log_w[sel], pred.mean[det][sel], self.Q, q_mean[sel],
+                            q_cov[g])
+                    log_rho[det] = log_u - log_w  # w_{k|k-1} log_rho gives u
             moved[det] = m_k
             # eq. 22: |det(I + dl grad f)| phi(m_k | .) / phi(m_k|k-1 | .)
             if cfg.flow_weights == "transition":
@@ -266,6 +280,16 @@ class LPFSMCPHD(SMCPHDFilter):
                     m_k, pred.states[det], mean[group], prior_info[group]
                 )
 
+        if not legacy and cfg.marginal_weights and not np.all(det):
+            # the particles left to the transition (no measurement for their label, or out of
+            # its gate), per label: the same weights with q_j = phi(. | m_{k-1}^j)
+            idle = np.flatnonzero(~det)
+            log_w = np.log(np.maximum(pred.weights[idle], 1e-300))
+            for t in np.unique(pred.tids[idle]):
+                sel = pred.tids[idle] == t
+                mu = pred.mean[idle][sel]
+                log_rho[idle[sel]] = marginal_log_weights(
+                    pred.states[idle][sel], log_w[sel], mu, self.Q, mu, self.Q) - log_w[sel]
         # eq. 21 at the moved particles: the density of the labelled parts
         rho = np.exp(np.clip(log_rho, -500, 500))
         r = meas[det]
@@ -288,13 +312,20 @@ class LPFSMCPHD(SMCPHDFilter):
             pd_i, kap, miss = p_d[r], kappa, p_miss
         num = pd_i * np.exp(log_h) * rho[det] * pred.weights[det]
         G = np.bincount(r, num, minlength=n_r)  # eq. 23 (over the particles of measurement r)
-        weights = miss * pred.weights  # eq. 22, l_ring = l_breve = 0
+        weights = miss * pred.weights * rho  # eq. 22, l_ring = l_breve = 0
         weights[det] = num / (kap[r] + G[r])  # eq. 22, labelled particles
-        return self._extract(moved, weights, pred.tids, meas)
+        on_measurement = weights.copy()  # eq. 25 sums the labelled term only
+        on_measurement[~det] = 0.0
+        if not legacy and cfg.marginal_weights:
+            # eq. 11 for the label's particles, all drawn by its flow: the missed-detection
+            # term too, with the same importance weight
+            weights[det] += miss * pred.weights[det] * rho[det]
+        return self._extract(moved, weights, pred.tids, meas, on_measurement)
 
     def _extract(
-        self, states: np.ndarray, weights: np.ndarray, tids: np.ndarray, measurement: np.ndarray
-    ) -> Update:
+        self, states: np.ndarray, weights: np.ndarray, tids: np.ndarray, measurement: np.ndarray,
+        on_measurement: np.ndarray | None = None,
+    ) -> Update:  # fmt: skip
         """Label-wise speakers (eqs. 24–25 with the persistent labels).
 
         A label's weight is eq. 25's: the weight of its particles labelled with its main
@@ -302,7 +333,9 @@ class LPFSMCPHD(SMCPHDFilter):
         eq. 23); ``measurement`` (N,) is each particle's label, -1 for none. Every label whose
         weight is at least ``xi`` is reported at its particles' weighted mean; a confirmed
         label whose weight drops below ``xi`` (missed detections) keeps being reported, with
-        that weight, for up to ``coast_frames`` frames.
+        that weight, for up to ``coast_frames`` frames. ``on_measurement`` (N,): each
+        particle's weight from its measurement alone (eq. 22's labelled term, without
+        eq. 11's missed-detection term); ``weights`` when omitted.
         """
         cfg = self.config
         self._frame += 1
@@ -313,7 +346,8 @@ class LPFSMCPHD(SMCPHDFilter):
         if np.any(labelled):
             _, r_idx = np.unique(measurement[labelled], return_inverse=True)
             table = np.zeros((len(uniq), r_idx.max() + 1))
-            np.add.at(table, (group[labelled], r_idx), weights[labelled])
+            w_on = weights if on_measurement is None else on_measurement
+            np.add.at(table, (group[labelled], r_idx), w_on[labelled])
             mass = table.max(axis=1)
         report = []
         for j, (tid, m) in enumerate(zip(uniq.tolist(), mass, strict=True)):
@@ -334,9 +368,11 @@ class LPFSMCPHD(SMCPHDFilter):
         self, states: np.ndarray, weights: np.ndarray, tids: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
         """Per label: drop labels that are neither reported, coasting nor heavier than
-        ``prune_weight``; resample a label on its own when its ESS falls below
-        ``resample_fraction`` of its particles, to ``particles_per_target`` particles of equal
-        weight (its weight unchanged), so that a label keeps its particles through misses."""
+        ``prune_weight``; when the ESS of all the particles kept (``resample_rule=
+        "population"``, Algorithm 1) or of the label's own particles (``"label"``) falls below
+        ``resample_fraction`` of their number, resample each label on its own to
+        ``particles_per_target`` particles of equal weight (its weight unchanged), so that a
+        label keeps its particles through misses."""
         cfg = self.config
         if len(weights) == 0:
             return states, weights, tids, False
@@ -346,6 +382,11 @@ class LPFSMCPHD(SMCPHDFilter):
         count = np.bincount(group, minlength=len(uniq))
         out_s, out_w, out_t = [], [], []
         resampled = False
+        # Algorithm 1: ESS of all the particles that are kept (Kong, Liu and Wong 1994)
+        live = np.isin(group, np.flatnonzero(mass >= cfg.prune_weight))
+        w_live = weights[live]
+        population = (w_live.sum() ** 2
+                      < cfg.resample_fraction * live.sum() * np.sum(w_live * w_live))
         for j, tid in enumerate(uniq.tolist()):
             coasting = (tid in self._confirmed
                         and self._frame - self._confirmed[tid] <= cfg.coast_frames)
@@ -355,7 +396,9 @@ class LPFSMCPHD(SMCPHDFilter):
                 continue
             sel = np.flatnonzero(group == j)
             ess = mass[j] ** 2 / sq[j] if sq[j] > 0 else 0.0
-            if ess < cfg.resample_fraction * count[j] or count[j] > 4 * cfg.particles_per_target:
+            degenerate = (population if cfg.resample_rule == "population"
+                          else ess < cfg.resample_fraction * count[j])
+            if degenerate or count[j] > 4 * cfg.particles_per_target:
                 idx = sel[systematic_resample(weights[sel], cfg.particles_per_target, self.rng)]
                 out_s.append(states[idx])
                 out_w.append(np.full(len(idx), mass[j] / len(idx)))
