@@ -109,6 +109,17 @@ class AV163View:
             z = (self.mouth_height - cam.position[2]) / ray[:, 2]
         return np.where(np.isfinite(z) & (z > 0), z, np.nan)
 
+    def head_height_map(self, max_depth: float = 15.0) -> np.ndarray:
+        """Height (pixels) of a head of :data:`~avtrack.av.geometry.HEAD_HEIGHT_M` whose
+        mouth is at each image pixel, at the depth where the pixel's ray meets the mouth
+        plane: ``(height, width)`` (rays above the plane's horizon get ``max_depth``). The
+        ``head_height`` of :class:`~avtrack.visual.heads.ForegroundHeadDetector`."""
+        width, height = self.camera.width, self.camera.height
+        yy, xx = np.mgrid[0:height, 0:width]
+        p = self.to_pinhole(np.column_stack([xx.ravel(), yy.ravel()]).astype(float))
+        z = np.clip(np.nan_to_num(self.mouth_depth(p), nan=max_depth), 0.3, max_depth)
+        return (self.camera.fy * HEAD_HEIGHT_M / z).reshape(height, width)
+
     def mouth_boxes(self, points: np.ndarray, doa_deg: np.ndarray | None = None,
                     max_depth: float = 15.0, heights: tuple[float, float] = (0.5, 1.0),
                     gate_deg: float = 5.0) -> np.ndarray:
