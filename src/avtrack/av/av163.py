@@ -207,6 +207,8 @@ def track_av163(
     if detector is None:
         detector = ColourTemplateDetector(av163_templates(seq))
     if mouth_offset is None:
+        mouth_offset = getattr(detector, "mouth_offset", None)
+    if mouth_offset is None:
         mouth_offset = (TEMPLATE_MOUTH_OFFSET if isinstance(detector, ColourTemplateDetector)
                         else FACE_MOUTH_OFFSET)
     view = AV163View(seq)

@@ -562,12 +562,12 @@ def video_measurements(
     info = probe_av163_video(video, seq)
     if detector is None:
         detector = ColourTemplateDetector(av163_templates(seq))
+    offset = getattr(detector, "mouth_offset", TEMPLATE_MOUTH_OFFSET)
     out = []
     for frame in iter_frames(video, info):
         boxes, _ = detector.detect(frame)
         b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2,
-                                    b[:, 1] + TEMPLATE_MOUTH_OFFSET * b[:, 3]]))
+        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + offset * b[:, 3]]))
     return out
 
 
