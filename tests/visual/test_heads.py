@@ -120,3 +120,25 @@ def test_static_scene_gives_nothing_and_bad_input_is_rejected():
     det = ForegroundHeadDetector(np.full((10, 10), 20.0))
     with pytest.raises(ValueError, match="does not match"):
         det.detect(background())
+
+
+def test_a_visible_face_places_the_mouth():
+    """Skin on the right half of the head (a face in profile): the mouth moves to the skin's
+    mean column and its lower rows; the back of a head keeps the geometric mouth."""
+    det = ForegroundHeadDetector(20.0)
+    learnt(det)
+    img = background()
+    person(img, 70, 30, 20)
+    img[36:50, 71:77] = (120, 150, 200)  # skin (YCrCb Cr 155, Cb 105)
+    boxes, _ = det.detect(img)
+    assert len(boxes) == 1
+    left, top, w, h = boxes[0]
+    mouth = (left + w / 2, top + det.mouth_offset * h)
+    assert mouth[0] == pytest.approx(73.5, abs=1.0)
+    assert mouth[1] == pytest.approx(36 + 0.85 * 13, abs=1.0)
+    det = ForegroundHeadDetector(20.0, min_skin=2.0)  # face refinement off
+    learnt(det)
+    boxes, _ = det.detect(img)
+    left, top, w, h = boxes[0]
+    assert left + w / 2 == pytest.approx(70, abs=2)
+    assert top + det.mouth_offset * h == pytest.approx(30 + 0.69 * 20, abs=3)

@@ -28,13 +28,21 @@ whose highest part is the head. The detector
    ``mouth_fraction`` of a head height below the head top (vertex to stomion is about 0.69 of
    vertex to menton in adult anthropometric tables), solved as a fixed point because the
    head's size depends on where its mouth is;
-5. **identity evidence** (optional): the Bhattacharyya coefficient of the hue-saturation
+5. **the face, where visible**: skin pixels inside the head box (one head wide and tall from
+   the head top; the YCrCb skin rule of Chai and Ngan, "Face segmentation using skin-colour
+   map in videophone applications", IEEE TCSVT 1999: 133 <= Cr <= 173, 77 <= Cb <= 127).
+   When at least ``min_skin`` of the box is skin, the mouth is placed at the skin's mean
+   column (a face in profile is off the head's centre) and at its ``mouth_quantile`` row
+   (the lower face); otherwise (back of the head) the geometric mouth below the head top
+   stays;
+6. **identity evidence** (optional): the Bhattacharyya coefficient of the hue-saturation
    histogram of the head box (one head wide, 1.3 high from the top: head and neck) with the
    best-matching colour template scores each head; heads below ``min_similarity`` are dropped.
 
-Each head is reported as a box ``(left, top, width, height)`` from the head top, ``height`` one
-head tall and ``0.75`` head wide, so the mouth is at ``mouth_fraction`` of the box's height
-(``mouth_offset``), like :data:`~avtrack.io.av163.TEMPLATE_MOUTH_OFFSET` for template windows.
+Each head is reported as a box ``(left, top, width, height)`` one head tall and ``0.75``
+head wide, placed so that the mouth is at its horizontal centre and ``mouth_fraction`` of its
+height (``mouth_offset``) below its top, like :data:`~avtrack.io.av163.TEMPLATE_MOUTH_OFFSET`
+for template windows (without a visible face the box's top is the head top).
 
 The detector keeps the background model between calls: give it the frames of one video in
 order (``reset()`` before another video). Seated people, people taller or shorter than the
@@ -75,6 +83,11 @@ class ForegroundHeadDetector:
         Heads smaller than this many pixels tall are not looked for (noise).
     gain : bool
         Compensate global exposure changes before background subtraction.
+    min_skin : float
+        Fraction of the head box that must be skin for the face to place the mouth (above 1:
+        never).
+    mouth_quantile : float
+        The mouth's row within the face's skin pixels (a quantile, from the top).
     """
 
     def __init__(
@@ -87,6 +100,8 @@ class ForegroundHeadDetector:
         suppress: float = 0.8,
         min_head: float = 6.0,
         gain: bool = True,
+        min_skin: float = 0.05,
+        mouth_quantile: float = 0.85,
     ) -> None:
         hh = np.asarray(head_height, dtype=float)
         if hh.ndim not in (0, 2) or not np.all(np.isfinite(hh)) or np.any(hh <= 0):
@@ -105,6 +120,10 @@ class ForegroundHeadDetector:
         self.suppress = float(suppress)
         self.min_head = float(min_head)
         self.gain = bool(gain)
+        if min_skin < 0 or not 0 <= mouth_quantile <= 1:
+            raise ValueError("min_skin must be >= 0 and mouth_quantile in [0, 1]")
+        self.min_skin = float(min_skin)
+        self.mouth_quantile = float(mouth_quantile)
         self.reset()
 
     def reset(self) -> None:
@@ -205,11 +224,27 @@ class ForegroundHeadDetector:
         if len(heads) == 0:
             return np.zeros((0, 4)), np.zeros(0)
         x, top, h = heads.T
-        boxes = np.column_stack([x - 0.375 * h, top, 0.75 * h, h])
+        H, W = img.shape[:2]
+        mx, my = x.copy(), top + self.mouth_offset * h
+        if self.min_skin <= 1:
+            import cv2
+
+            for i in range(len(heads)):  # the face, where visible, places the mouth
+                x0, x1 = int(max(x[i] - 0.5 * h[i], 0)), int(min(x[i] + 0.5 * h[i], W))
+                y0, y1 = int(max(top[i], 0)), int(min(top[i] + h[i], H))
+                if x1 <= x0 or y1 <= y0:
+                    continue
+                ycc = cv2.cvtColor(img[y0:y1, x0:x1], cv2.COLOR_BGR2YCrCb)
+                skin = ((ycc[..., 1] >= 133) & (ycc[..., 1] <= 173)
+                        & (ycc[..., 2] >= 77) & (ycc[..., 2] <= 127))
+                if skin.any() and skin.mean() >= self.min_skin:
+                    rows, cols = np.nonzero(skin)
+                    mx[i] = x0 + cols.mean()
+                    my[i] = y0 + np.quantile(rows, self.mouth_quantile)
+        boxes = np.column_stack([mx - 0.375 * h, my - self.mouth_offset * h, 0.75 * h, h])
         if self.templates is None:
             return boxes, np.ones(len(boxes))
         bins = hue_saturation_bins(img)
-        H, W = bins.shape
         scores = np.empty(len(boxes))
         for i in range(len(boxes)):  # head and neck: one head wide, 1.3 tall
             x0, x1 = int(max(x[i] - 0.5 * h[i], 0)), int(min(x[i] + 0.5 * h[i], W))
