@@ -1,8 +1,11 @@
 """AV16.3 from its real video: colour-histogram visual measurements for the SMC-PHD filters.
 
 Sequence 30, camera 1 (the one sequence whose video is in ``../shared/data/av16.3``): the
-visual measurements come from the frames (:class:`avtrack.visual.colour.ColourTemplateDetector`
-with the sequence's ``hist_temp_16bins`` templates, foreground windows only), the audio ones
+visual measurements come from the frames (``--detector heads``, the default:
+:class:`avtrack.visual.heads.ForegroundHeadDetector`, the tops of the exposure-compensated
+moving foreground with the camera's head sizes, the face placing the mouth where visible;
+``--detector templates``: :class:`avtrack.visual.colour.ColourTemplateDetector` with the
+sequence's ``hist_temp_16bins`` templates, foreground windows only), the audio ones
 are the file's DOA measurements as DOA lines. Beside them, the same filters on detections
 synthesised from the ground truth (:class:`avtrack.phd.likelihood.SyntheticFaceDetector`), and
 the visual VEM tracker (OVBT) on the same visual points as fixed-size boxes.
@@ -22,6 +25,7 @@ Usage::
 
     python benchmarks/bench_av163_video.py            # 10 seeds
     python benchmarks/bench_av163_video.py --seeds 3
+    python benchmarks/bench_av163_video.py --seeds 3 --detector templates --video-only
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from avtrack.av.av163 import av163_detector  # noqa: E402
 from avtrack.io.av163 import load_av163  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
 from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
@@ -49,22 +54,10 @@ from avtrack.phd.likelihood import (  # noqa: E402
     av163_frames,
     av163_truth,
 )
-from avtrack.av.av163 import AV163View  # noqa: E402
-from avtrack.visual.colour import ColourTemplateDetector  # noqa: E402
-from avtrack.visual.heads import ForegroundHeadDetector  # noqa: E402
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 VIDEO = "seq30-2p-1101_cam1_divx_audio.avi"
 FACE_BOX = (18.0, 25.0)  # face box (w, h) the VEM row draws around a point
-
-
-def make_detector(name: str, seq):
-    """``heads``: :class:`~avtrack.visual.heads.ForegroundHeadDetector` with the camera's
-    head-size map and the templates as scores; ``templates``: the colour-template windows."""
-    if name == "templates":
-        return ColourTemplateDetector(seq.histograms[~seq.histogram_is_placeholder])
-    return ForegroundHeadDetector(AV163View(seq).head_height_map(),
-                                  seq.histograms[~seq.histogram_is_placeholder])
 
 
 def detect_video(folder: Path, seq, name: str) -> tuple[list[np.ndarray], float, float]:
@@ -72,7 +65,7 @@ def detect_video(folder: Path, seq, name: str) -> tuple[list[np.ndarray], float,
     video = folder / VIDEO
     info = probe_video(video)
     t0 = time.perf_counter()
-    det = make_detector(name, seq)
+    det = av163_detector(seq, name)
     offset = getattr(det, "mouth_offset", TEMPLATE_MOUTH_OFFSET)
     out = []
     for frame in iter_frames(video, info):
@@ -134,7 +127,7 @@ def persons_scores(folder: Path, seq, detector: str) -> tuple[float, float, int,
     from avtrack.av.av163 import track_av163
 
     t0 = time.perf_counter()
-    res, _ = track_av163(seq, folder / VIDEO, make_detector(detector, seq))
+    res, _ = track_av163(seq, folder / VIDEO, av163_detector(seq, detector))
     elapsed = time.perf_counter() - t0
     P = res.persons
     est, pos = [], []
@@ -170,8 +163,9 @@ def main(argv: list[str] | None = None) -> int:
         synth = SyntheticFaceDetector().detect(seq.positions, seq.present,
                                                np.random.default_rng([s, 30, 1]))
         synth_frames = av163_frames(seq, synth, config.sigma_audio, config.gate)
-        sources = [("video", video_frames)] + ([] if args.video_only
-                                               else [("synthetic", synth_frames)])
+        sources = [("video", video_frames)]
+        if not args.video_only:
+            sources.append(("synthetic", synth_frames))
         for source, frames in sources:
             for name in ("lpf", "npf"):
                 rows.setdefault((source, name), []).append(
@@ -184,7 +178,8 @@ def main(argv: list[str] | None = None) -> int:
     av = persons_scores(args.data, seq, args.detector)
     print(f"Machine: {platform.processor() or platform.machine()}, Python "
           f"{platform.python_version()}, NumPy {np.__version__}, one BLAS thread; "
-          f"{args.seeds} seeds; detector {args.detector}; AV16.3 sequence 30 camera 1 ({seq.n_frames} frames)\n")
+          f"{args.seeds} seeds; detector {args.detector}; AV16.3 sequence 30 camera 1 "
+          f"({seq.n_frames} frames)\n")
     print("| visual measurements | filter | OSPA-T (c 65, label 25) | OSPA (c 50) |")
     print("|---|---|---:|---:|")
     label = {"lpf": "LPF", "npf": "NPF", "vem": "VEM (OVBT, visual only)"}

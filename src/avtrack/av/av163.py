@@ -155,6 +155,32 @@ class AV163View:
         w = 0.75 * h
         return np.column_stack([p[:, 0] - w / 2, p[:, 1] - h / 2, w, h])
 
+#: Detectors :func:`av163_detector` builds for an AV16.3 video.
+AV163_DETECTORS = ("heads", "templates")
+
+
+def av163_detector(seq: AV163Sequence, kind: str = "heads"):
+    """The visual detector of an AV16.3 sequence's video.
+
+    ``heads`` (the default): :class:`~avtrack.visual.heads.ForegroundHeadDetector`, the tops
+    of the exposure-compensated foreground with this camera's head sizes
+    (:meth:`AV163View.head_height_map`), the face placing the mouth where visible and the
+    sequence's ``hist_temp_16bins`` templates as scores; ``templates``: the colour-template
+    windows of Kilic et al. (:class:`~avtrack.visual.colour.ColourTemplateDetector`).
+    """
+    from avtrack.io.av163 import av163_templates
+
+    if kind == "templates":
+        from avtrack.visual.colour import ColourTemplateDetector
+
+        return ColourTemplateDetector(av163_templates(seq))
+    if kind != "heads":
+        raise ValueError(f"unknown AV16.3 detector {kind!r}; one of {AV163_DETECTORS}")
+    from avtrack.visual.heads import ForegroundHeadDetector
+
+    return ForegroundHeadDetector(AV163View(seq).head_height_map(), av163_templates(seq))
+
+
 def track_av163(
     seq: AV163Sequence,
     video,
@@ -165,8 +191,8 @@ def track_av163(
 ):
     """The direction-space person tracker on an AV16.3 sequence from its real video.
 
-    Visual: a detector on every frame (default: the colour templates of the sequence's
-    ``hist_temp_16bins``, :class:`~avtrack.visual.colour.ColourTemplateDetector`), each box's
+    Visual: a detector on every frame (default: :func:`av163_detector`, the foreground head
+    tops of :class:`~avtrack.visual.heads.ForegroundHeadDetector`), each box's
     mouth point turned into a head box at the mouth plane's depth (:meth:`AV163View.
     mouth_boxes`), with the hue-saturation histogram of the detected window as appearance.
     Audio: the sequence's DOA measurements (``Z_doa``, array 1) as the peaks of each frame.
@@ -179,8 +205,9 @@ def track_av163(
     detector : object with ``detect(frame) -> (boxes, scores)``, optional
     config : PersonConfig, optional
     mouth_offset : float, optional
-        Mouth point as a fraction of a box's height from its top (default: the template
-        offset for the template detector, the face-box offset for any other).
+        Mouth point as a fraction of a box's height from its top (default: the detector's
+        ``mouth_offset`` if it has one, the template offset for the template detector, the
+        face-box offset for any other).
 
     Returns
     -------
@@ -195,7 +222,6 @@ def track_av163(
     from avtrack.io.av163 import (
         FACE_MOUTH_OFFSET,
         TEMPLATE_MOUTH_OFFSET,
-        av163_templates,
         probe_av163_video,
     )
     from avtrack.io.mot import MOTData
@@ -205,7 +231,7 @@ def track_av163(
 
     info = probe_av163_video(video, seq)
     if detector is None:
-        detector = ColourTemplateDetector(av163_templates(seq))
+        detector = av163_detector(seq)
     if mouth_offset is None:
         mouth_offset = getattr(detector, "mouth_offset", None)
     if mouth_offset is None:

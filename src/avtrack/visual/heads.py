@@ -174,23 +174,21 @@ class ForegroundHeadDetector:
         import cv2
         from scipy.ndimage import minimum_filter1d
 
-        height, width = mask.shape
+        height = mask.shape[0]
         if self.head_height.ndim == 2 and self.head_height.shape != mask.shape:
             raise ValueError(f"head_height map {self.head_height.shape} does not match the "
                              f"frame {mask.shape}")
         solid = cv2.blur(mask.astype(np.float32), (5, 9)) >= 0.5
         top = np.where(solid.any(axis=0), solid.argmax(axis=0), height).astype(float)
         # local minima at the smallest radius, one per plateau (its centre)
-        low = (top < height - 1) & (top <= minimum_filter1d(top, 7, mode="nearest"))
+        idx = np.flatnonzero((top < height - 1)
+                             & (top <= minimum_filter1d(top, 7, mode="nearest")))
         xs = []
-        x = 0
-        idx = np.flatnonzero(low)
-        while x < len(idx):
-            x2 = x
-            while x2 + 1 < len(idx) and idx[x2 + 1] == idx[x2] + 1 and top[idx[x2 + 1]] == top[idx[x]]:
-                x2 += 1
-            xs.append((idx[x] + idx[x2]) // 2)
-            x = x2 + 1
+        start = 0
+        for k in range(1, len(idx) + 1):
+            if k == len(idx) or idx[k] != idx[k - 1] + 1 or top[idx[k]] != top[idx[start]]:
+                xs.append((idx[start] + idx[k - 1]) // 2)
+                start = k
         if not xs:
             return np.zeros((0, 3))
         xc = np.array(xs)
