@@ -142,3 +142,16 @@ def test_a_visible_face_places_the_mouth():
     left, top, w, h = boxes[0]
     assert left + w / 2 == pytest.approx(70, abs=2)
     assert top + det.mouth_offset * h == pytest.approx(30 + 0.69 * 20, abs=3)
+
+
+def test_a_blob_cut_by_the_image_edge_is_not_a_head():
+    det = ForegroundHeadDetector(20.0)
+    learnt(det)
+    img = background()
+    img[40:, W - 6:] = (90, 90, 40)  # someone's shoulder entering at the right edge
+    person(img, 70, 30, 20)
+    boxes, _ = det.detect(img)
+    assert len(boxes) == 1 and boxes[0, 0] + boxes[0, 2] / 2 == pytest.approx(70, abs=2)
+    det = ForegroundHeadDetector(20.0, border=0.0)
+    learnt(det)
+    assert len(det.detect(img)[0]) == 2

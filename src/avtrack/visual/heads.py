@@ -81,6 +81,9 @@ class ForegroundHeadDetector:
         higher one is dropped (a shoulder).
     min_head : float
         Heads smaller than this many pixels tall are not looked for (noise).
+    border : float
+        Head tops closer than this many head heights to the image's left or right edge are
+        dropped: a blob cut by the edge peaks at the edge, wherever its head is.
     gain : bool
         Compensate global exposure changes before background subtraction.
     min_skin : float
@@ -99,6 +102,7 @@ class ForegroundHeadDetector:
         peak_radius: float = 0.4,
         suppress: float = 0.8,
         min_head: float = 6.0,
+        border: float = 0.1,
         gain: bool = True,
         min_skin: float = 0.05,
         mouth_quantile: float = 0.85,
@@ -119,6 +123,9 @@ class ForegroundHeadDetector:
         self.peak_radius = float(peak_radius)
         self.suppress = float(suppress)
         self.min_head = float(min_head)
+        if border < 0:
+            raise ValueError(f"border must be >= 0, got {border}")
+        self.border = float(border)
         self.gain = bool(gain)
         if min_skin < 0 or not 0 <= mouth_quantile <= 1:
             raise ValueError("min_skin must be >= 0 and mouth_quantile in [0, 1]")
@@ -197,7 +204,8 @@ class ForegroundHeadDetector:
         for _ in range(6):  # mouth = top + fraction * head height at the mouth
             h = self._size(xc, ym)
             ym = yt + self.mouth_offset * h
-        keep = h >= self.min_head
+        width = mask.shape[1]
+        keep = (h >= self.min_head) & (xc >= self.border * h) & (xc <= width - 1 - self.border * h)
         for i in np.flatnonzero(keep):
             r = max(int(self.peak_radius * h[i]), 3)
             if yt[i] > top[max(xc[i] - r, 0): xc[i] + r + 1].min():
