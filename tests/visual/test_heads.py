@@ -152,6 +152,12 @@ def test_a_blob_cut_by_the_image_edge_is_not_a_head():
     person(img, 70, 30, 20)
     boxes, _ = det.detect(img)
     assert len(boxes) == 1 and boxes[0, 0] + boxes[0, 2] / 2 == pytest.approx(70, abs=2)
-    det = ForegroundHeadDetector(20.0, border=0.0)
+    # a head near the edge is kept while its top does not reach within `border` of it
+    img = background()
+    person(img, W - 12, 30, 20)
+    det = ForegroundHeadDetector(20.0, border=0.1)
     learnt(det)
-    assert len(det.detect(img)[0]) == 2
+    assert len(det.detect(img)[0]) == 1
+    det = ForegroundHeadDetector(20.0, border=1.0)
+    learnt(det)
+    assert len(det.detect(img)[0]) == 0

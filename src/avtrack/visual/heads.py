@@ -82,8 +82,9 @@ class ForegroundHeadDetector:
     min_head : float
         Heads smaller than this many pixels tall are not looked for (noise).
     border : float
-        Head tops closer than this many head heights to the image's left or right edge are
-        dropped: a blob cut by the edge peaks at the edge, wherever its head is.
+        Head-top plateaus that reach the image's left or right edge, or come within this
+        many head heights of it, are dropped: a blob cut by the edge peaks at the edge,
+        wherever its head is.
     gain : bool
         Compensate global exposure changes before background subtraction.
     min_skin : float
@@ -190,22 +191,26 @@ class ForegroundHeadDetector:
         # local minima at the smallest radius, one per plateau (its centre)
         idx = np.flatnonzero((top < height - 1)
                              & (top <= minimum_filter1d(top, 7, mode="nearest")))
+        width = mask.shape[1]
         xs = []
         start = 0
         for k in range(1, len(idx) + 1):
             if k == len(idx) or idx[k] != idx[k - 1] + 1 or top[idx[k]] != top[idx[start]]:
-                xs.append((idx[start] + idx[k - 1]) // 2)
+                xs.append((idx[start], idx[k - 1]))
                 start = k
         if not xs:
             return np.zeros((0, 3))
-        xc = np.array(xs)
+        ends = np.array(xs)
+        xc = ends.sum(axis=1) // 2
         yt = top[xc]
         ym = yt.copy()
         for _ in range(6):  # mouth = top + fraction * head height at the mouth
             h = self._size(xc, ym)
             ym = yt + self.mouth_offset * h
-        width = mask.shape[1]
-        keep = (h >= self.min_head) & (xc >= self.border * h) & (xc <= width - 1 - self.border * h)
+        # a plateau reaching the image's edge (or within `border` heads of it) is a blob cut
+        # by the frame, not a head top
+        near = self.border * h
+        keep = (h >= self.min_head) & (ends[:, 0] > near) & (ends[:, 1] < width - 1 - near)
         for i in np.flatnonzero(keep):
             r = max(int(self.peak_radius * h[i]), 3)
             if yt[i] > top[max(xc[i] - r, 0): xc[i] + r + 1].min():
