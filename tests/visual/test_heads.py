@@ -52,7 +52,7 @@ def test_head_top_and_mouth_of_one_person():
 def test_two_people_and_the_geometry_map_sets_each_head_size():
     # heads lower in the image are nearer, hence taller: a map growing downwards
     size = np.repeat(np.linspace(10, 40, H)[:, None], W, axis=1)
-    det = ForegroundHeadDetector(size)
+    det = ForegroundHeadDetector(size, head_aspect=0.0)  # the geometry alone
     learnt(det)
     img = background()
     person(img, 40, 20, 14)
@@ -161,3 +161,21 @@ def test_a_blob_cut_by_the_image_edge_is_not_a_head():
     det = ForegroundHeadDetector(20.0, border=1.0)
     learnt(det)
     assert len(det.detect(img)[0]) == 0
+
+
+def test_a_head_smaller_than_the_geometry_says_keeps_its_mouth_near_its_top():
+    """The back of a head 12 px tall where the map expects 20 (a seated person below the
+    mouth plane): the foreground's width bounds the head, so the mouth is 0.69 x ~12 below
+    the top, not 0.69 x 20."""
+    det = ForegroundHeadDetector(20.0)
+    learnt(det)
+    img = background()
+    person(img, 70, 30, 12)
+    boxes, _ = det.detect(img)
+    assert len(boxes) == 1
+    _, top, _, h = boxes[0]
+    assert top + det.mouth_offset * h == pytest.approx(30 + 0.69 * 12, abs=2.5)
+    det = ForegroundHeadDetector(20.0, head_aspect=0.0)
+    learnt(det)
+    _, top, _, h = det.detect(img)[0][0]
+    assert top + det.mouth_offset * h == pytest.approx(30 + 0.69 * 20, abs=1.5)

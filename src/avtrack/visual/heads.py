@@ -34,7 +34,9 @@ whose highest part is the head. The detector
    When at least ``min_skin`` of the box is skin, the mouth is placed at the skin's mean
    column (a face in profile is off the head's centre) and at its ``mouth_quantile`` row
    (the lower face); otherwise (back of the head) the geometric mouth below the head top
-   stays;
+   stays, with the head no taller than the foreground's width a quarter head below the
+   top over ``head_aspect`` says (a seated person's mouth lies below the mouth plane, which
+   the geometry reads as a nearer, bigger head);
 6. **identity evidence** (optional): the Bhattacharyya coefficient of the hue-saturation
    histogram of the head box (one head wide, 1.3 high from the top: head and neck) with the
    best-matching colour template scores each head; heads below ``min_similarity`` are dropped.
@@ -58,6 +60,20 @@ from avtrack.visual.colour import _as_templates, hue_saturation_bins
 
 #: Vertex-to-stomion over vertex-to-menton (head height) of an adult head.
 MOUTH_FRACTION = 0.69
+#: Head breadth over head height of an adult head (about 0.155 m / 0.24 m).
+HEAD_ASPECT = 0.65
+
+
+def _run_width(row: np.ndarray, x: int) -> int:
+    """Length of the run of True in ``row`` through column ``x`` (0 when ``row[x]`` is
+    False)."""
+    if not row[x]:
+        return 0
+    left = row[x::-1]
+    right = row[x:]
+    a = int(np.argmin(left)) if not left.all() else len(left)
+    b = int(np.argmin(right)) if not right.all() else len(right)
+    return a + b - 1
 
 
 class ForegroundHeadDetector:
@@ -81,6 +97,10 @@ class ForegroundHeadDetector:
         higher one is dropped (a shoulder).
     min_head : float
         Heads smaller than this many pixels tall are not looked for (noise).
+    head_aspect : float
+        Head breadth over head height: where no face places the mouth, the head is no
+        taller than the foreground's width a quarter head below its top divided by this (0:
+        the geometry alone).
     border : float
         Head-top plateaus that reach the image's left or right edge, or come within this
         many head heights of it, are dropped: a blob cut by the edge peaks at the edge,
@@ -104,6 +124,7 @@ class ForegroundHeadDetector:
         suppress: float = 0.8,
         min_head: float = 6.0,
         border: float = 0.1,
+        head_aspect: float = HEAD_ASPECT,
         gain: bool = True,
         min_skin: float = 0.05,
         mouth_quantile: float = 0.85,
@@ -127,6 +148,9 @@ class ForegroundHeadDetector:
         if border < 0:
             raise ValueError(f"border must be >= 0, got {border}")
         self.border = float(border)
+        if head_aspect < 0:
+            raise ValueError(f"head_aspect must be >= 0, got {head_aspect}")
+        self.head_aspect = float(head_aspect)
         self.gain = bool(gain)
         if min_skin < 0 or not 0 <= mouth_quantile <= 1:
             raise ValueError("min_skin must be >= 0 and mouth_quantile in [0, 1]")
@@ -187,6 +211,7 @@ class ForegroundHeadDetector:
             raise ValueError(f"head_height map {self.head_height.shape} does not match the "
                              f"frame {mask.shape}")
         solid = cv2.blur(mask.astype(np.float32), (5, 9)) >= 0.5
+        self._solid = solid
         top = np.where(solid.any(axis=0), solid.argmax(axis=0), height).astype(float)
         # local minima at the smallest radius, one per plateau (its centre)
         idx = np.flatnonzero((top < height - 1)
@@ -237,6 +262,7 @@ class ForegroundHeadDetector:
         x, top, h = heads.T
         H, W = img.shape[:2]
         mx, my = x.copy(), top + self.mouth_offset * h
+        on_face = np.zeros(len(heads), dtype=bool)
         if self.min_skin <= 1:
             import cv2
 
@@ -252,6 +278,13 @@ class ForegroundHeadDetector:
                     rows, cols = np.nonzero(skin)
                     mx[i] = x0 + cols.mean()
                     my[i] = y0 + np.quantile(rows, self.mouth_quantile)
+                    on_face[i] = True
+        if self.head_aspect > 0:  # back of the head: no taller than it is wide says
+            for i in np.flatnonzero(~on_face):
+                y = min(int(top[i] + 0.25 * h[i]), H - 1)
+                wide = _run_width(self._solid[y], int(x[i]))
+                if wide > 0:
+                    my[i] = top[i] + self.mouth_offset * min(h[i], wide / self.head_aspect)
         boxes = np.column_stack([mx - 0.375 * h, my - self.mouth_offset * h, 0.75 * h, h])
         if self.templates is None:
             return boxes, np.ones(len(boxes))
