@@ -19,7 +19,7 @@ whose highest part is the head. The detector
    (Haritaoglu, Harwood and Davis, "W4: real-time surveillance of people and their
    activities", IEEE PAMI 2000; Zhao and Nevatia, "Tracking multiple humans in complex
    situations", IEEE PAMI 2004). A peak must be the highest point within ``peak_radius``
-   head heights, and a peak within ``suppress`` head widths of a higher one is that person's
+   head heights, and a peak within ``suppress`` head heights of a higher one is that person's
    shoulder and is dropped;
 4. **the head's size** comes from the camera geometry: ``head_height`` gives, for every pixel,
    how tall (pixels) a head whose mouth is at that pixel is (for a calibrated camera, a head
@@ -47,9 +47,11 @@ height (``mouth_offset``) below its top, like :data:`~avtrack.io.av163.TEMPLATE_
 for template windows (without a visible face the box's top is the head top).
 
 The detector keeps the background model between calls: give it the frames of one video in
-order (``reset()`` before another video). Seated people, people taller or shorter than the
-mouth plane assumes, and people whose heads leave the top of the image get biased mouth
-points (the head top is still found; its offset to the mouth is off by the height error).
+order (``reset()`` before another video). People taller or shorter than the mouth plane
+assumes and heads leaving the top of the image get biased mouth points when no face is
+visible (the head top is still found; its offset to the mouth is off by the size error, which
+the width bound only limits from above); two people whose heads touch in the image give one
+head; a moving object that is not a person gives a head when its colours pass the templates.
 """
 
 from __future__ import annotations
