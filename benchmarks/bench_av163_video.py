@@ -1,8 +1,11 @@
 """AV16.3 from its real video: colour-histogram visual measurements for the SMC-PHD filters.
 
 Sequence 30, camera 1 (the one sequence whose video is in ``../shared/data/av16.3``): the
-visual measurements come from the frames (:class:`avtrack.visual.colour.ColourTemplateDetector`
-with the sequence's ``hist_temp_16bins`` templates, foreground windows only), the audio ones
+visual measurements come from the frames (``--detector heads``, the default:
+:class:`avtrack.visual.heads.ForegroundHeadDetector`, the tops of the exposure-compensated
+moving foreground with the camera's head sizes, the face placing the mouth where visible;
+``--detector templates``: :class:`avtrack.visual.colour.ColourTemplateDetector` with the
+sequence's ``hist_temp_16bins`` templates, foreground windows only), the audio ones
 are the file's DOA measurements as DOA lines. Beside them, the same filters on detections
 synthesised from the ground truth (:class:`avtrack.phd.likelihood.SyntheticFaceDetector`), and
 the visual VEM tracker (OVBT) on the same visual points as fixed-size boxes.
@@ -22,6 +25,7 @@ Usage::
 
     python benchmarks/bench_av163_video.py            # 10 seeds
     python benchmarks/bench_av163_video.py --seeds 3
+    python benchmarks/bench_av163_video.py --seeds 3 --detector templates --video-only
 """
 
 from __future__ import annotations
@@ -39,6 +43,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from avtrack.av.av163 import av163_detector  # noqa: E402
 from avtrack.io.av163 import load_av163  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
 from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
@@ -49,24 +54,23 @@ from avtrack.phd.likelihood import (  # noqa: E402
     av163_frames,
     av163_truth,
 )
-from avtrack.visual.colour import ColourTemplateDetector  # noqa: E402
 
 REPO_ROOT = Path(__file__).resolve().parents[1]
 VIDEO = "seq30-2p-1101_cam1_divx_audio.avi"
 FACE_BOX = (18.0, 25.0)  # face box (w, h) the VEM row draws around a point
 
 
-def detect_video(folder: Path, seq) -> tuple[list[np.ndarray], float, float]:
-    """Template points per frame, decode + detect seconds, video duration (s)."""
+def detect_video(folder: Path, seq, name: str) -> tuple[list[np.ndarray], float, float]:
+    """Mouth points per frame, decode + detect seconds, video duration (s)."""
     video = folder / VIDEO
     info = probe_video(video)
-    det = ColourTemplateDetector(seq.histograms[~seq.histogram_is_placeholder])
-    out = []
     t0 = time.perf_counter()
+    det = av163_detector(seq, name)
+    offset = getattr(det, "mouth_offset", TEMPLATE_MOUTH_OFFSET)
+    out = []
     for frame in iter_frames(video, info):
         b, _ = det.detect(frame)
-        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2,
-                                    b[:, 1] + TEMPLATE_MOUTH_OFFSET * b[:, 3]]))
+        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + offset * b[:, 3]]))
     return out, time.perf_counter() - t0, info.n_frames / info.fps
 
 
@@ -117,13 +121,13 @@ def vem_scores(visual: list[np.ndarray], seq) -> tuple[float, float]:
             ospa_sequence(pos, av163_truth(seq), 50.0, 2)[:, 0].mean())
 
 
-def persons_scores(folder: Path, seq) -> tuple[float, float, int, int, float]:
+def persons_scores(folder: Path, seq, detector: str) -> tuple[float, float, int, int, float]:
     """``track-av`` on the video: OSPA-T and OSPA of persons.csv's image positions (persons
     in view), persons, speakers, seconds."""
     from avtrack.av.av163 import track_av163
 
     t0 = time.perf_counter()
-    res, _ = track_av163(seq, folder / VIDEO)
+    res, _ = track_av163(seq, folder / VIDEO, av163_detector(seq, detector))
     elapsed = time.perf_counter() - t0
     P = res.persons
     est, pos = [], []
@@ -140,13 +144,18 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--data", type=Path, default=REPO_ROOT / ".." / "shared" / "data" / "av16.3")
     ap.add_argument("--seeds", type=int, default=10)
+    ap.add_argument("--detector", choices=("heads", "templates"), default="heads",
+                    help="visual detector on the frames: foreground head tops (default) or "
+                    "the colour-template windows (the earlier default)")
+    ap.add_argument("--video-only", action="store_true",
+                    help="skip the rows on detections synthesised from the ground truth")
     args = ap.parse_args(argv)
     if not (args.data / VIDEO).is_file():
         print(f"bench_av163_video: {args.data / VIDEO} not found", file=sys.stderr)
         return 2
     seq = load_av163(args.data, 30, 1)
     config = PHDConfig()
-    video_pts, t_detect, duration = detect_video(args.data, seq)
+    video_pts, t_detect, duration = detect_video(args.data, seq, args.detector)
     recall, precision = detector_rates(video_pts, seq)
     video_frames = av163_frames(seq, video_pts, config.sigma_audio, config.gate)
     rows: dict[tuple[str, str], list[tuple[float, float]]] = {}
@@ -154,18 +163,23 @@ def main(argv: list[str] | None = None) -> int:
         synth = SyntheticFaceDetector().detect(seq.positions, seq.present,
                                                np.random.default_rng([s, 30, 1]))
         synth_frames = av163_frames(seq, synth, config.sigma_audio, config.gate)
-        for source, frames in (("video", video_frames), ("synthetic", synth_frames)):
+        sources = [("video", video_frames)]
+        if not args.video_only:
+            sources.append(("synthetic", synth_frames))
+        for source, frames in sources:
             for name in ("lpf", "npf"):
                 rows.setdefault((source, name), []).append(
                     phd_scores(name, config, frames, seq, s))
-        rows.setdefault(("synthetic", "vem"), []).append(vem_scores(synth, seq))
+        if not args.video_only:
+            rows.setdefault(("synthetic", "vem"), []).append(vem_scores(synth, seq))
         print(f"# seed {s}: " + ", ".join(f"{k[0]}/{k[1]} {v[-1][0]:.2f}"
                                           for k, v in rows.items()), file=sys.stderr, flush=True)
     rows[("video", "vem")] = [vem_scores(video_pts, seq)]
-    av = persons_scores(args.data, seq)
+    av = persons_scores(args.data, seq, args.detector)
     print(f"Machine: {platform.processor() or platform.machine()}, Python "
           f"{platform.python_version()}, NumPy {np.__version__}, one BLAS thread; "
-          f"{args.seeds} seeds; AV16.3 sequence 30 camera 1 ({seq.n_frames} frames)\n")
+          f"{args.seeds} seeds; detector {args.detector}; AV16.3 sequence 30 camera 1 "
+          f"({seq.n_frames} frames)\n")
     print("| visual measurements | filter | OSPA-T (c 65, label 25) | OSPA (c 50) |")
     print("|---|---|---:|---:|")
     label = {"lpf": "LPF", "npf": "NPF", "vem": "VEM (OVBT, visual only)"}
@@ -175,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"| video | track-av (persons.csv, in view) | {av[0]:.2f} | {av[1]:.2f} |")
     print(f"\ntrack-av: {av[2]} persons, {av[3]} speakers (2 people in the sequence), "
           f"{av[4]:.1f} s for {duration:.1f} s of video (detection, histograms, tracking)")
-    print(f"\nColour-template detector: recall (20 px) {recall:.3f}, points within 40 px of a "
+    print(f"\nDetector ({args.detector}): recall (20 px) {recall:.3f}, points within 40 px of a "
           f"person {precision:.3f}; decode + detect {t_detect:.1f} s for {duration:.1f} s of "
           f"video ({t_detect / duration:.2f} x real time, {seq.n_frames / t_detect:.1f} "
           f"frames/s)")

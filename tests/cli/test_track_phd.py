@@ -114,7 +114,7 @@ def test_video_measurements_from_frames(main, small, tmp_path, capsys):
                "-o", str(out)])  # fmt: skip
     assert rc == 0 and out.is_file()
     msg = capsys.readouterr().out
-    assert "visual video colour templates; OSPA" in msg and "OSPA-T" in msg
+    assert "visual video foreground heads; OSPA" in msg and "OSPA-T" in msg
 
 
 @pytest.mark.parametrize(

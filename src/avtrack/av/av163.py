@@ -109,6 +109,17 @@ class AV163View:
             z = (self.mouth_height - cam.position[2]) / ray[:, 2]
         return np.where(np.isfinite(z) & (z > 0), z, np.nan)
 
+    def head_height_map(self, max_depth: float = 15.0) -> np.ndarray:
+        """Height (pixels) of a head of :data:`~avtrack.av.geometry.HEAD_HEIGHT_M` whose
+        mouth is at each image pixel, at the depth where the pixel's ray meets the mouth
+        plane: ``(height, width)`` (rays above the plane's horizon get ``max_depth``). The
+        ``head_height`` of :class:`~avtrack.visual.heads.ForegroundHeadDetector`."""
+        width, height = self.camera.width, self.camera.height
+        yy, xx = np.mgrid[0:height, 0:width]
+        p = self.to_pinhole(np.column_stack([xx.ravel(), yy.ravel()]).astype(float))
+        z = np.clip(np.nan_to_num(self.mouth_depth(p), nan=max_depth), 0.3, max_depth)
+        return (self.camera.fy * HEAD_HEIGHT_M / z).reshape(height, width)
+
     def mouth_boxes(self, points: np.ndarray, doa_deg: np.ndarray | None = None,
                     max_depth: float = 15.0, heights: tuple[float, float] = (0.5, 1.0),
                     gate_deg: float = 5.0) -> np.ndarray:
@@ -144,6 +155,32 @@ class AV163View:
         w = 0.75 * h
         return np.column_stack([p[:, 0] - w / 2, p[:, 1] - h / 2, w, h])
 
+#: Detectors :func:`av163_detector` builds for an AV16.3 video.
+AV163_DETECTORS = ("heads", "templates")
+
+
+def av163_detector(seq: AV163Sequence, kind: str = "heads"):
+    """The visual detector of an AV16.3 sequence's video.
+
+    ``heads`` (the default): :class:`~avtrack.visual.heads.ForegroundHeadDetector`, the tops
+    of the exposure-compensated foreground with this camera's head sizes
+    (:meth:`AV163View.head_height_map`), the face placing the mouth where visible and the
+    sequence's ``hist_temp_16bins`` templates as scores; ``templates``: the colour-template
+    windows of Kilic et al. (:class:`~avtrack.visual.colour.ColourTemplateDetector`).
+    """
+    from avtrack.io.av163 import av163_templates
+
+    if kind == "templates":
+        from avtrack.visual.colour import ColourTemplateDetector
+
+        return ColourTemplateDetector(av163_templates(seq))
+    if kind != "heads":
+        raise ValueError(f"unknown AV16.3 detector {kind!r}; one of {AV163_DETECTORS}")
+    from avtrack.visual.heads import ForegroundHeadDetector
+
+    return ForegroundHeadDetector(AV163View(seq).head_height_map(), av163_templates(seq))
+
+
 def track_av163(
     seq: AV163Sequence,
     video,
@@ -154,8 +191,8 @@ def track_av163(
 ):
     """The direction-space person tracker on an AV16.3 sequence from its real video.
 
-    Visual: a detector on every frame (default: the colour templates of the sequence's
-    ``hist_temp_16bins``, :class:`~avtrack.visual.colour.ColourTemplateDetector`), each box's
+    Visual: a detector on every frame (default: :func:`av163_detector`, the foreground head
+    tops of :class:`~avtrack.visual.heads.ForegroundHeadDetector`), each box's
     mouth point turned into a head box at the mouth plane's depth (:meth:`AV163View.
     mouth_boxes`), with the hue-saturation histogram of the detected window as appearance.
     Audio: the sequence's DOA measurements (``Z_doa``, array 1) as the peaks of each frame.
@@ -168,8 +205,9 @@ def track_av163(
     detector : object with ``detect(frame) -> (boxes, scores)``, optional
     config : PersonConfig, optional
     mouth_offset : float, optional
-        Mouth point as a fraction of a box's height from its top (default: the template
-        offset for the template detector, the face-box offset for any other).
+        Mouth point as a fraction of a box's height from its top (default: the detector's
+        ``mouth_offset`` if it has one, the template offset for the template detector, the
+        face-box offset for any other).
 
     Returns
     -------
@@ -184,7 +222,6 @@ def track_av163(
     from avtrack.io.av163 import (
         FACE_MOUTH_OFFSET,
         TEMPLATE_MOUTH_OFFSET,
-        av163_templates,
         probe_av163_video,
     )
     from avtrack.io.mot import MOTData
@@ -194,7 +231,9 @@ def track_av163(
 
     info = probe_av163_video(video, seq)
     if detector is None:
-        detector = ColourTemplateDetector(av163_templates(seq))
+        detector = av163_detector(seq)
+    if mouth_offset is None:
+        mouth_offset = getattr(detector, "mouth_offset", None)
     if mouth_offset is None:
         mouth_offset = (TEMPLATE_MOUTH_OFFSET if isinstance(detector, ColourTemplateDetector)
                         else FACE_MOUTH_OFFSET)

@@ -52,7 +52,8 @@ examples:
 AV16.3 (the sequence's real video; array 1's DOA measurements; the calibration maps them):
   avtrack track-av ../shared/data/av16.3 --seq 30 --cam 1 \
       --video ../shared/data/av16.3/seq30-2p-1101_cam1_divx_audio.avi -o out/av30
-  (default detector: the sequence's colour templates, hist_temp_16bins; or --detector NAME)
+  (default detector: the tops of the moving foreground, scored by the sequence's colour
+  templates; or --detector NAME)
 
 Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes of persons seen in the
 image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked person every

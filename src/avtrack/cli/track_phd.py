@@ -45,7 +45,7 @@ examples:
   # clutter stress test: 0.5 visual false alarms and 0.5 DOA outliers per frame
   avtrack track-phd av16.3/ --seq 24 --cam 1 --clutter-rate 0.5 -o lpf_clutter.csv
 
-  # from the real video: colour-histogram measurements with the hist_temp templates
+  # from the real video: mouths below the tops of the moving foreground (or on the face)
   avtrack track-phd av16.3/ --seq 30 --cam 1 \
       --video av16.3/seq30-2p-1101_cam1_divx_audio.avi -o lpf30.csv
 
@@ -99,9 +99,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "--video",
         type=Path,
         metavar="FILE.avi",
-        help="the sequence's video: visual measurements from its frames (colour histograms "
-        "against the hist_temp_16bins templates, foreground windows only) instead of "
-        "face detections",
+        help="the sequence's video: visual measurements from its frames (mouths below the "
+        "head tops of the exposure-compensated moving foreground, or on the visible face, "
+        "scored against the hist_temp_16bins templates) instead of face detections",
     )
     p.add_argument(
         "--clutter-rate",
@@ -153,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
         if args.visual != "auto":
             raise InputError(f"--visual {args.visual} and --video both choose the visual "
                              f"measurements; give one")
-        visual, used = video_measurements(args.video, seq), "video colour templates"
+        visual, used = video_measurements(args.video, seq), "video foreground heads"
     else:
         visual, used = av163_visual(args.folder, seq, args.visual, rng)
     doa = list(seq.z_doa)

@@ -531,10 +531,12 @@ def video_measurements(
 ) -> list[np.ndarray]:
     """Visual measurements of an AV16.3 sequence computed from its video frames.
 
-    By default the colour-histogram measurements of the audio-visual SMC-PHD trackers:
-    :class:`~avtrack.visual.colour.ColourTemplateDetector` with the sequence's
-    ``hist_temp_16bins`` templates (the non-placeholder cells), one point per template and
-    frame, at the window's mouth offset (:data:`TEMPLATE_MOUTH_OFFSET`).
+    By default the mouths of :class:`~avtrack.visual.heads.ForegroundHeadDetector`
+    (:func:`avtrack.av.av163.av163_detector`): the tops of the exposure-compensated moving
+    foreground, the mouth a head's height below from the camera geometry or on the visible
+    face, scored against the sequence's ``hist_temp_16bins`` templates. ``detector=
+    av163_detector(seq, "templates")`` gives the colour-histogram measurements of the
+    audio-visual SMC-PHD trackers (one window per template and frame).
 
     Parameters
     ----------
@@ -542,8 +544,9 @@ def video_measurements(
         The sequence's video (one frame per ``Timingcam`` row, 360 x 288).
     seq : AV163Sequence
     detector : object with ``detect(frame) -> (boxes, scores)``, optional
-        Another detector (boxes (left, top, width, height)); its points are the boxes'
-        mouth offsets the same way.
+        Another detector (boxes (left, top, width, height)); its points are at the boxes'
+        centre columns and ``detector.mouth_offset`` (default :data:`TEMPLATE_MOUTH_OFFSET`)
+        of their heights.
 
     Returns
     -------
@@ -555,19 +558,20 @@ def video_measurements(
         The video cannot be read, its size is not the calibration's image size, or its frame
         count differs from the sequence's.
     """
-    from avtrack.io.av163 import av163_templates, probe_av163_video
+    from avtrack.io.av163 import probe_av163_video
     from avtrack.io.video import iter_frames
-    from avtrack.visual.colour import ColourTemplateDetector
 
     info = probe_av163_video(video, seq)
     if detector is None:
-        detector = ColourTemplateDetector(av163_templates(seq))
+        from avtrack.av.av163 import av163_detector
+
+        detector = av163_detector(seq)
+    offset = getattr(detector, "mouth_offset", TEMPLATE_MOUTH_OFFSET)
     out = []
     for frame in iter_frames(video, info):
         boxes, _ = detector.detect(frame)
         b = np.asarray(boxes, dtype=float).reshape(-1, 4)
-        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2,
-                                    b[:, 1] + TEMPLATE_MOUTH_OFFSET * b[:, 3]]))
+        out.append(np.column_stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + offset * b[:, 3]]))
     return out
 
 
