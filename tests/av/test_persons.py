@@ -266,6 +266,8 @@ def test_image_shows_a_person_only_while_the_camera_confirms_them():
         assert all(shown[:50]) and all(shown[70:])
         assert shown[50:70] == [True] * held + [False] * (20 - held), hold_s
         assert all(abs(o.azimuth_deg[0]) < 3.0 for o in outs[50:70])  # still tracked
+        centre = box[0, :2] + box[0, 2:] / 2  # seen: the visual box's centre, exactly
+        assert all(np.allclose(o.pixels[0], centre) for o in outs[:50] + outs[70:])
 
 
 def test_image_hold_must_not_be_negative():

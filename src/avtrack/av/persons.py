@@ -496,6 +496,9 @@ class PersonTracker:
         # a person with two visual tracks this frame: use the first
         _, first = np.unique(seen_rows, return_index=True)
         vis_rows, vis_obs = seen_rows[first], np.column_stack([v_az, v_el])[first]
+        # box centre of each seen person (by id: rows move with deaths, merges and births)
+        seen_centre = dict(zip(self.ids[vis_rows].tolist(),
+                               boxes[first, :2] + 0.5 * boxes[first, 2:], strict=True))
         seen = np.zeros(self.n_persons, dtype=bool)
         seen[vis_rows] = True
         if vis_rows.size:  # distance and appearance from the boxes
@@ -558,6 +561,14 @@ class PersonTracker:
         # metres away (AV16.3) needs this too, or tracks carried by audio and fragments of
         # visual tracks stand in the image beside the persons the camera does see.
         inside &= self.unseen_run <= min(c.image_hold_s, c.exclusion_s) * self.fps
+        # A person the camera sees this frame is where its visual track's box is: the
+        # direction state, smoothed and sent back through a distance estimate, is a worse
+        # image position than the measurement it came from (AV16.3's camera, metres from the
+        # array: 16.9 -> 14.0 px OSPA on sequence 30 camera 1).
+        for row, pid in enumerate(self.ids.tolist()):
+            if pid in seen_centre and self.unseen_run[row] == 0:
+                px[row] = seen_centre[pid]
+                inside[row] = True
         px = np.where(inside[:, None], px, np.nan)
         in_view = inside & (px[:, 0] >= self.fov[0]) & (px[:, 0] <= self.fov[1])
         alive = set(self.ids.tolist())
