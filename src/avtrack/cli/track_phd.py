@@ -153,7 +153,10 @@ def run(args: argparse.Namespace) -> int:
         if args.visual != "auto":
             raise InputError(f"--visual {args.visual} and --video both choose the visual "
                              f"measurements; give one")
-        visual, used = video_measurements(args.video, seq), "video foreground heads"
+        from avtrack.av.av163 import av163_detector
+
+        visual = video_measurements(args.video, seq, av163_detector(seq))
+        used = "video foreground heads"
     else:
         visual, used = av163_visual(args.folder, seq, args.visual, rng)
     doa = list(seq.z_doa)

@@ -527,15 +527,16 @@ VISUAL_SOURCES = ("auto", "faces", "synthetic")
 def video_measurements(
     video: str | Path,
     seq: AV163Sequence,
-    detector=None,
+    detector,
 ) -> list[np.ndarray]:
     """Visual measurements of an AV16.3 sequence computed from its video frames.
 
-    By default the mouths of :class:`~avtrack.visual.heads.ForegroundHeadDetector`
-    (:func:`avtrack.av.av163.av163_detector`): the tops of the exposure-compensated moving
-    foreground, the mouth a head's height below from the camera geometry or on the visible
-    face, scored against the sequence's ``hist_temp_16bins`` templates. ``detector=
-    av163_detector(seq, "templates")`` gives the colour-histogram measurements of the
+    The usual detector is :func:`avtrack.av.av163.av163_detector` (same layer, so the caller
+    builds it): ``av163_detector(seq)`` gives the mouths of
+    :class:`~avtrack.visual.heads.ForegroundHeadDetector` (the tops of the
+    exposure-compensated moving foreground, the mouth a head's height below from the camera
+    geometry or on the visible face, scored against the sequence's ``hist_temp_16bins``
+    templates); ``av163_detector(seq, "templates")`` the colour-histogram measurements of the
     audio-visual SMC-PHD trackers (one window per template and frame).
 
     Parameters
@@ -543,8 +544,8 @@ def video_measurements(
     video : str or Path
         The sequence's video (one frame per ``Timingcam`` row, 360 x 288).
     seq : AV163Sequence
-    detector : object with ``detect(frame) -> (boxes, scores)``, optional
-        Another detector (boxes (left, top, width, height)); its points are at the boxes'
+    detector : object with ``detect(frame) -> (boxes, scores)``
+        Boxes (left, top, width, height); the points are at the boxes'
         centre columns and ``detector.mouth_offset`` (default :data:`TEMPLATE_MOUTH_OFFSET`)
         of their heights.
 
@@ -562,10 +563,6 @@ def video_measurements(
     from avtrack.io.video import iter_frames
 
     info = probe_av163_video(video, seq)
-    if detector is None:
-        from avtrack.av.av163 import av163_detector
-
-        detector = av163_detector(seq)
     offset = getattr(detector, "mouth_offset", TEMPLATE_MOUTH_OFFSET)
     out = []
     for frame in iter_frames(video, info):
