@@ -173,7 +173,7 @@ class ForegroundHeadDetector:
     def _compensate(self, frame: np.ndarray) -> np.ndarray:
         """The frame divided by its global per-channel gain relative to the background."""
         x = frame.astype(np.float32)
-        if self.gain and self._background is not None:
+        if self.gain and self._background is not None and self._mask is not None:
             bg = self._mask[::4, ::4] == 0
             f = x[::4, ::4][bg]
             b = self._background[::4, ::4][bg]
@@ -283,7 +283,7 @@ class ForegroundHeadDetector:
                     on_face[i] = True
         if self.head_aspect > 0:  # back of the head: no taller than it is wide says
             for i in np.flatnonzero(~on_face):
-                y = min(int(top[i] + 0.25 * h[i]), H - 1)
+                y = int(min(int(top[i] + 0.25 * h[i]), H - 1))
                 wide = _run_width(self._solid[y], int(x[i]))
                 if wide > 0:
                     my[i] = top[i] + self.mouth_offset * min(h[i], wide / self.head_aspect)
