@@ -177,7 +177,11 @@ class LPFSMCPHD(SMCPHDFilter):
         _, mean, _ = weighted_moments(pred.states, pred.weights + 1e-300, group, len(uniq))
         cand = [(int(t), mean[j, :2], 0) for j, t in enumerate(uniq.tolist())
                 if t in self._confirmed and t not in self._assoc]
-        cand += [(t, pos, self._frame - f) for t, (pos, f) in self._lost.items()]
+        # a dropped label stays a candidate until it is confirmed again: a relinked birth that
+        # is never confirmed (a lone detection) must not use the label up
+        alive = set(uniq.tolist())
+        cand += [(t, pos, self._frame - f) for t, (pos, f) in self._lost.items()
+                 if t not in alive]
         tids = births.tids.copy()
         for r in np.unique(births.measurement):
             if not cand:
@@ -190,7 +194,6 @@ class LPFSMCPHD(SMCPHDFilter):
             if d[best] <= reach[best]:
                 tid = cand.pop(best)[0]
                 tids[births.measurement == r] = tid
-                self._lost.pop(tid, None)
         return Births(births.states, births.measurement, births.weights, tids)
 
     def _update(self, frame: AVFrame, pred: Prediction, births: Births) -> Update:
@@ -353,6 +356,7 @@ class LPFSMCPHD(SMCPHDFilter):
         for j, (tid, m) in enumerate(zip(uniq.tolist(), mass, strict=True)):
             if m >= cfg.extraction_threshold:
                 self._confirmed[tid] = self._frame
+                self._lost.pop(tid, None)  # relinked and confirmed
                 self._seen[tid] = mean[j, :2].copy()
                 report.append(j)
             elif tid in self._confirmed and (
