@@ -6,14 +6,14 @@ fused measurement its label is associated with — its audio label ``l_ring`` an
 the default ``flow_weights="proposal"``:
 
 - each label takes at most one fused measurement and each measurement at most one label
-  (eqs. 15–16 per label: an assignment maximising ``sum log(G_lr / kappa_r)`` over the
-  pairs where the label explains the measurement better than clutter, ``G_lr`` = eq. 12 over
-  the label's gated predicted particles, :meth:`LPFSMCPHD._associate`); a particle is
-  labelled with its label's measurement when it is within its gate;
+  (eqs. 15–16 per label: an assignment maximising ``sum log((kappa_r + G_lr) / kappa_r)``,
+  eq. 11's factor of the measurement, over the gated pairs — for a DOA line alone only where
+  the label explains it better than clutter — ``G_lr`` = eq. 12 over the label's gated
+  predicted particles, :meth:`LPFSMCPHD._associate`, ``PHDConfig.association``);
 - births (eq. 13) come from visual measurements that no label takes, join the PHD after the
   frame's update (:mod:`~avtrack.phd.smc_phd`), and take the label of a confirmed label
   without a measurement, or of a recently dropped one, found near them (the older label is
-  kept);
+  kept; a dropped label stays a candidate until it is confirmed again);
 - the flow (eqs. 6–9) uses the label's likelihood (eq. 21, Gaussian in the position: the flow
   is affine) with the particle's transition covariance ``Q`` as the prior of eq. 9
   (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance), composed into one
@@ -124,10 +124,14 @@ class LPFSMCPHD(SMCPHDFilter):
 
     def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
         """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
-        most one fused measurement and each measurement at most one label, maximising
-        ``sum log(G_lr / kappa_r)`` over the pairs where the label explains the measurement
-        better than clutter, ``G_lr = sum_{i in l} p_D^r h^{i,r} w_{k|k-1}^i`` (eq. 12 over
-        the label's gated predicted particles).
+        most one fused measurement and each measurement at most one label, maximising the sum
+        of the pairs' scores, ``G_lr = sum_{i in l} p_D^r h^{i,r} w_{k|k-1}^i`` (eq. 12 over
+        the label's gated predicted particles). ``PHDConfig.association``: ``"clutter"``, the
+        pairs with ``G_lr > kappa_r`` scored ``log(G_lr / kappa_r)``; ``"phd"``, every gated
+        pair scored ``log((kappa_r + G_lr) / kappa_r)``, the measurement's factor in eq. 11
+        (the label then keeps ``G_lr / (kappa_r + G_lr)`` of it, eq. 22, and a birth gathers
+        evidence over frames however high the clutter); ``"face"`` (default), ``"phd"`` for
+        measurements with a face point and ``"clutter"`` for a DOA line alone.
 
         Returns
         -------
@@ -143,9 +147,15 @@ class LPFSMCPHD(SMCPHDFilter):
         uniq, group = np.unique(pred.tids, return_inverse=True)
         G = np.zeros((len(uniq), frame.n_pairs))
         np.add.at(G, group, pred.weights[:, None] * lik)
-        with np.errstate(divide="ignore"):
-            score = np.log(G) - np.log(kappa)
-        ok = score > 0
+        if cfg.association == "clutter":  # the label must explain r better than clutter
+            with np.errstate(divide="ignore"):
+                score = np.log(G) - np.log(kappa)
+            ok = score > 0
+        else:  # eq. 11's factor of r, (kappa_r + G_lr) / kappa_r, for any gated label
+            score = np.log1p(G / kappa)
+            ok = G > 0
+            if cfg.association == "face":  # a DOA line alone: better than clutter only
+                ok &= (frame.pairs[:, 1] > 0)[None, :] | (G > kappa)
         if not np.any(ok):
             return {}
         cost = np.where(ok, -score, 0.0)
