@@ -143,8 +143,9 @@ class PHDConfig:
         point, ``"clutter"`` for a DOA line alone (a line crosses the whole image and cannot
         give a birth; fed weakly by lines, lost labels linger and come back as false speakers).
         Six shared pairs, 3 seeds, LPF OSPA clean / at 0.5 false alarms per frame:
-        ``"face"`` 7.12 / 8.76 (× 1.23), ``"clutter"`` 7.21 / 9.48 (× 1.31); ``"phd"`` on
-        24 (1)–(2) at 0.5: 9.23 against 8.87 with ``"clutter"``.
+        ``"face"`` 7.12 / 8.76 (× 1.23), ``"clutter"`` 7.17 / 9.48 (× 1.32); ``"phd"`` on
+        24 (1) and 24 (2) at 0.5: 7.98 and 10.47, against 7.36 and 8.16 (``"face"``) and
+        8.87 and 9.29 (``"clutter"``).
     coast_frames : int
         A confirmed speaker (label weight once ``>= xi``) is still reported, at its particles'
         mean, for up to this many frames in which its weight stays below ``xi`` (missed
