@@ -297,7 +297,7 @@ def test_an_unconfirmed_relink_does_not_use_up_the_label():
     # label must still be there for the speaker's return (the dropped label stays a candidate
     # until it is confirmed again)
     rng = np.random.default_rng(3)
-    frames, labels_on = [], []
+    frames = []
     for t in range(90):
         p = np.array([[100.0 + 0.5 * t, 150.0]])
         seen = t < 30 or t == 46 or t >= 60
