@@ -290,3 +290,46 @@ def test_two_speakers_near_one_label_get_two_labels():
     res = LPFSMCPHD(seed=0).run(frames)
     assert all(len(e.ids) == 2 for e in res.estimates[30:])
     assert len({int(i) for e in res.estimates[30:] for i in e.ids}) == 2
+
+
+def test_an_unconfirmed_relink_does_not_use_up_the_label():
+    # a lone detection after a gap relinks the dropped label but is never confirmed; the
+    # label must still be there for the speaker's return (the dropped label stays a candidate
+    # until it is confirmed again)
+    rng = np.random.default_rng(3)
+    frames = []
+    for t in range(90):
+        p = np.array([[100.0 + 0.5 * t, 150.0]])
+        seen = t < 30 or t == 46 or t >= 60
+        vis = p + rng.normal(scale=2.0, size=(1, 2)) if seen else np.zeros((0, 2))
+        frames.append(make_frame(vis, np.zeros(0), np.zeros((0, 3)), 10.0))
+    res = LPFSMCPHD(seed=0).run(frames)
+    before = {int(i) for e in res.estimates[5:30] for i in e.ids}
+    after = {int(i) for e in res.estimates[65:] for i in e.ids}
+    assert len(before) == 1 and after == before
+    assert all(len(e.ids) == 0 for e in res.estimates[46:55])  # the lone detection: no speaker
+
+
+def test_a_fast_new_speaker_is_confirmed_under_clutter():
+    # a face walking 8 px/frame, no audio, false-alarm intensity 0.6 per frame: under the
+    # "clutter" association a face alone never lets a birth of mass 0.01 take the next
+    # detection (birth_mass p_D max h < kappa), and a new birth replaces it every frame; with
+    # eq. 11's factor (default) the birth keeps G / (kappa + G) of it and is confirmed
+    rng = np.random.default_rng(4)
+    frames = []
+    for t in range(30):
+        p = np.array([[40.0 + 8.0 * t, 150.0]])
+        frames.append(make_frame(p + rng.normal(scale=2.0, size=(1, 2)), np.zeros(0),
+                                 np.zeros((0, 3)), 10.0))
+    cfg = PHDConfig(clutter_visual=0.6)
+    new = LPFSMCPHD(cfg, seed=0).run(frames)
+    old = LPFSMCPHD(dataclasses.replace(cfg, association="clutter"), seed=0).run(frames)
+    n_new = sum(len(e.ids) for e in new.estimates)
+    n_old = sum(len(e.ids) for e in old.estimates)
+    assert n_new >= 25 and len({int(i) for e in new.estimates for i in e.ids}) == 1
+    assert n_old < n_new
+
+
+def test_association_is_validated():
+    with pytest.raises(ValueError, match="association"):
+        PHDConfig(association="nearest")

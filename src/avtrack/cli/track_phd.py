@@ -59,6 +59,7 @@ The --config YAML holds PHDConfig fields, e.g.:
   flow_weights: proposal
   marginal_weights: true
   resample_rule: population
+  association: face
   coast_frames: 0
 """
 

@@ -6,14 +6,14 @@ fused measurement its label is associated with — its audio label ``l_ring`` an
 the default ``flow_weights="proposal"``:
 
 - each label takes at most one fused measurement and each measurement at most one label
-  (eqs. 15–16 per label: an assignment maximising ``sum log(G_lr / kappa_r)`` over the
-  pairs where the label explains the measurement better than clutter, ``G_lr`` = eq. 12 over
-  the label's gated predicted particles, :meth:`LPFSMCPHD._associate`); a particle is
-  labelled with its label's measurement when it is within its gate;
+  (eqs. 15–16 per label: an assignment maximising ``sum log((kappa_r + G_lr) / kappa_r)``,
+  eq. 11's factor of the measurement, over the gated pairs — for a DOA line alone only where
+  the label explains it better than clutter — ``G_lr`` = eq. 12 over the label's gated
+  predicted particles, :meth:`LPFSMCPHD._associate`, ``PHDConfig.association``);
 - births (eq. 13) come from visual measurements that no label takes, join the PHD after the
   frame's update (:mod:`~avtrack.phd.smc_phd`), and take the label of a confirmed label
   without a measurement, or of a recently dropped one, found near them (the older label is
-  kept);
+  kept; a dropped label stays a candidate until it is confirmed again);
 - the flow (eqs. 6–9) uses the label's likelihood (eq. 21, Gaussian in the position: the flow
   is affine) with the particle's transition covariance ``Q`` as the prior of eq. 9
   (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance), composed into one
@@ -124,10 +124,14 @@ class LPFSMCPHD(SMCPHDFilter):
 
     def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
         """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
-        most one fused measurement and each measurement at most one label, maximising
-        ``sum log(G_lr / kappa_r)`` over the pairs where the label explains the measurement
-        better than clutter, ``G_lr = sum_{i in l} p_D^r h^{i,r} w_{k|k-1}^i`` (eq. 12 over
-        the label's gated predicted particles).
+        most one fused measurement and each measurement at most one label, maximising the sum
+        of the pairs' scores, ``G_lr = sum_{i in l} p_D^r h^{i,r} w_{k|k-1}^i`` (eq. 12 over
+        the label's gated predicted particles). ``PHDConfig.association``: ``"clutter"``, the
+        pairs with ``G_lr > kappa_r`` scored ``log(G_lr / kappa_r)``; ``"phd"``, every gated
+        pair scored ``log((kappa_r + G_lr) / kappa_r)``, the measurement's factor in eq. 11
+        (the label then keeps ``G_lr / (kappa_r + G_lr)`` of it, eq. 22, and a birth gathers
+        evidence over frames however high the clutter); ``"face"`` (default), ``"phd"`` for
+        measurements with a face point and ``"clutter"`` for a DOA line alone.
 
         Returns
         -------
@@ -143,9 +147,15 @@ class LPFSMCPHD(SMCPHDFilter):
         uniq, group = np.unique(pred.tids, return_inverse=True)
         G = np.zeros((len(uniq), frame.n_pairs))
         np.add.at(G, group, pred.weights[:, None] * lik)
-        with np.errstate(divide="ignore"):
-            score = np.log(G) - np.log(kappa)
-        ok = score > 0
+        if cfg.association == "clutter":  # the label must explain r better than clutter
+            with np.errstate(divide="ignore"):
+                score = np.log(G) - np.log(kappa)
+            ok = score > 0
+        else:  # eq. 11's factor of r, (kappa_r + G_lr) / kappa_r, for any gated label
+            score = np.log1p(G / kappa)
+            ok = G > 0
+            if cfg.association == "face":  # a DOA line alone: better than clutter only
+                ok &= (frame.pairs[:, 1] > 0)[None, :] | (G > kappa)
         if not np.any(ok):
             return {}
         cost = np.where(ok, -score, 0.0)
@@ -177,7 +187,11 @@ class LPFSMCPHD(SMCPHDFilter):
         _, mean, _ = weighted_moments(pred.states, pred.weights + 1e-300, group, len(uniq))
         cand = [(int(t), mean[j, :2], 0) for j, t in enumerate(uniq.tolist())
                 if t in self._confirmed and t not in self._assoc]
-        cand += [(t, pos, self._frame - f) for t, (pos, f) in self._lost.items()]
+        # a dropped label stays a candidate until it is confirmed again: a relinked birth that
+        # is never confirmed (a lone detection) must not use the label up
+        alive = set(uniq.tolist())
+        cand += [(t, pos, self._frame - f) for t, (pos, f) in self._lost.items()
+                 if t not in alive]
         tids = births.tids.copy()
         for r in np.unique(births.measurement):
             if not cand:
@@ -190,7 +204,6 @@ class LPFSMCPHD(SMCPHDFilter):
             if d[best] <= reach[best]:
                 tid = cand.pop(best)[0]
                 tids[births.measurement == r] = tid
-                self._lost.pop(tid, None)
         return Births(births.states, births.measurement, births.weights, tids)
 
     def _update(self, frame: AVFrame, pred: Prediction, births: Births) -> Update:
@@ -353,6 +366,7 @@ class LPFSMCPHD(SMCPHDFilter):
         for j, (tid, m) in enumerate(zip(uniq.tolist(), mass, strict=True)):
             if m >= cfg.extraction_threshold:
                 self._confirmed[tid] = self._frame
+                self._lost.pop(tid, None)  # relinked and confirmed
                 self._seen[tid] = mean[j, :2].copy()
                 report.append(j)
             elif tid in self._confirmed and (

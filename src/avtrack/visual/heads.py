@@ -282,7 +282,7 @@ class ForegroundHeadDetector:
                     my[i] = y0 + np.quantile(rows, self.mouth_quantile)
                     on_face[i] = True
         if self.head_aspect > 0:  # back of the head: no taller than it is wide says
-            for i in np.flatnonzero(~on_face):
+            for i in np.flatnonzero(~on_face).tolist():
                 y = int(min(int(top[i] + 0.25 * h[i]), H - 1))
                 wide = _run_width(self._solid[y], int(x[i]))
                 if wide > 0:
