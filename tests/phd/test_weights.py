@@ -333,3 +333,31 @@ def test_a_fast_new_speaker_is_confirmed_under_clutter():
 def test_association_is_validated():
     with pytest.raises(ValueError, match="association"):
         PHDConfig(association="nearest")
+
+
+def test_a_birth_relinks_the_label_whose_spread_explains_it_best():
+    # issue 24 (b): face A (60, 150) seen on frames 0-29, face B (290, 150) on 0-149, then a
+    # face at (210, 150) from frame 200: 150 px from A's label (dropped 170 frames earlier,
+    # reach 220) and 80 px from B's (dropped 50 frames earlier, reach 100). By distance /
+    # reach the old label wins (0.68 against 0.80); by the likelihood of the birth under
+    # each label's spread since it was dropped (std reach / 2, normalised) B's label does
+    rng = np.random.default_rng(5)
+    a, b, z = np.array([60.0, 150.0]), np.array([290.0, 150.0]), np.array([210.0, 150.0])
+    frames = []
+    for t in range(230):
+        pts = [p for p, on in ((a, t < 30), (b, t < 150), (z, t >= 200)) if on]
+        vis = np.array(pts).reshape(-1, 2)
+        vis = vis + rng.normal(scale=1.0, size=vis.shape)
+        frames.append(make_frame(vis, np.zeros(0), np.zeros((0, 3)), 10.0))
+
+    def labels_near(res, p, ts):
+        return {int(i) for t in ts for i, x in zip(res.estimates[t].ids,
+                                                   res.estimates[t].positions, strict=True)
+                if np.linalg.norm(x - p) < 20}
+
+    for rule in ("likelihood", "reach"):
+        res = LPFSMCPHD(PHDConfig(relink_rule=rule), seed=0).run(frames)
+        la, lb = labels_near(res, a, range(10, 30)), labels_near(res, b, range(10, 150))
+        lz = labels_near(res, z, range(205, 230))
+        assert len(la) == 1 and len(lb) == 1 and la != lb
+        assert lz == (lb if rule == "likelihood" else la)

@@ -162,6 +162,17 @@ class PHDConfig:
         ``relabel_distance + relink_speed * gap`` pixels of it (``gap`` frames later) takes
         it back (LPF): a speaker who was missed for long, or left and came back, keeps the
         label.
+    relink_rule : {"likelihood", "reach"}
+        Which dropped (or confirmed, unmeasured) label a birth takes when several are in
+        reach (LPF). ``"likelihood"`` (default): the one under whose spread since it was
+        dropped the birth is most likely — an isotropic Gaussian about its last confirmed
+        position with standard deviation ``reach / 2`` (the reach above is two standard
+        deviations), normalised, so a longer gap spreads a label thinner rather than making it
+        more attractive; ``"reach"``: the smallest ``distance / reach`` (previous rule, which
+        lets old labels, with the larger reach, win over recent nearer ones).
+    relink_gate : float
+        ``"likelihood"``: a label is a candidate within this many standard deviations
+        (``reach / 2``) of the birth; 2 (default) is the reach of ``"reach"``.
     prune_weight : float
         A label that is neither reported nor coasting is dropped when its weight falls
         below this (LPF).
@@ -203,6 +214,8 @@ class PHDConfig:
     relabel_distance: float = 50.0
     relink_frames: int = 250
     relink_speed: float = 1.0
+    relink_rule: str = "likelihood"
+    relink_gate: float = 2.0
     extraction_threshold: float = 0.5
     resample_fraction: float = 0.5
     resample_rule: str = "population"
@@ -266,6 +279,15 @@ class PHDConfig:
             raise ValueError(
                 f"PHDConfig: resample_rule must be one of {RESAMPLE_RULES}, got "
                 f"{self.resample_rule!r}"
+            )
+        if self.relink_rule not in ("likelihood", "reach"):
+            raise ValueError(
+                f"PHDConfig: relink_rule must be 'likelihood' or 'reach', got "
+                f"{self.relink_rule!r}"
+            )
+        if not (np.isfinite(self.relink_gate) and self.relink_gate > 0):
+            raise ValueError(
+                f"PHDConfig: relink_gate must be a finite number > 0, got {self.relink_gate!r}"
             )
         if self.association not in ASSOCIATIONS:
             raise ValueError(

@@ -13,7 +13,8 @@ the default ``flow_weights="proposal"``:
 - births (eq. 13) come from visual measurements that no label takes, join the PHD after the
   frame's update (:mod:`~avtrack.phd.smc_phd`), and take the label of a confirmed label
   without a measurement, or of a recently dropped one, found near them (the older label is
-  kept; a dropped label stays a candidate until it is confirmed again);
+  kept; a dropped label stays a candidate until it is confirmed again; among several, the
+  one whose spread since it was dropped makes the birth most likely, ``relink_rule``);
 - the flow (eqs. 6–9) uses the label's likelihood (eq. 21, Gaussian in the position: the flow
   is affine) with the particle's transition covariance ``Q`` as the prior of eq. 9
   (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance), composed into one
@@ -200,8 +201,20 @@ class LPFSMCPHD(SMCPHDFilter):
             d = np.array([np.linalg.norm(pos - z) for _, pos, _ in cand])
             reach = np.array([cfg.relabel_distance + cfg.relink_speed * gap
                               for _, _, gap in cand])
-            best = int(np.argmin(d / reach))
-            if d[best] <= reach[best]:
+            if cfg.relink_rule == "reach":  # nearest relative to the reach (old labels win)
+                best = int(np.argmin(d / reach))
+                ok = d[best] <= reach[best]
+            else:
+                # the label whose spread since it was dropped explains the birth best: an
+                # isotropic Gaussian of std reach / 2 (the reach is two standard deviations),
+                # normalised, so a longer gap spreads the label thinner instead of making it
+                # more attractive; gated at relink_gate standard deviations
+                sd = reach / 2.0
+                loglik = -2.0 * np.log(sd) - 0.5 * (d / sd) ** 2
+                loglik[d > cfg.relink_gate * sd] = -np.inf
+                best = int(np.argmax(loglik))
+                ok = bool(np.isfinite(loglik[best]))
+            if ok:
                 tid = cand.pop(best)[0]
                 tids[births.measurement == r] = tid
         return Births(births.states, births.measurement, births.weights, tids)
