@@ -459,3 +459,27 @@ class DPRTFEG(CGMMLocalizer):
             return heat
         self._heat = heat if dens is not None else decay_to_uniform(self._heat, rate)
         return self._heat
+
+
+@dataclass(frozen=True)
+class FastEGConfig(EGConfig):
+    """:class:`EGConfig` with the position weights on (``position_step = 0.3``, position
+    smoothing 0.4, share 0.01, presence reach 3 cells), chosen on development seeds 10–15 of
+    both simulated scene kinds (BENCHMARKS.md, issue 23)."""
+
+    position_step: float | None = 0.3
+
+
+@register_localizer("dprtf-eg-fast")
+class DPRTFEGFast(DPRTFEG):
+    """DPRTF-EG whose heat-map peaks follow a moving talker (not in the thesis).
+
+    The thesis weights ``w_t`` (eqs. 5.15–5.19, :class:`DPRTFEG`) keep their slow memory and
+    say *how much* talker there is near each direction; position weights ``v_t``, updated by
+    the same eqs. 5.17–5.19 from the same features with a larger step, wider spatial
+    smoothing and a fixed share, say *where*. The heat map is :func:`place_presence`:
+    ``v_t``'s peaks carrying ``w_t``'s local mass (non-negative, summing to about one; peaks
+    as wide as ``v_t``'s). See :class:`FastEGConfig`.
+    """
+
+    Config: ClassVar[type] = FastEGConfig
