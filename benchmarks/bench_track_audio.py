@@ -79,12 +79,13 @@ from avtrack.simulate.heatmaps import synthetic_heatmaps  # noqa: E402
 
 STEP = 4  # localizer frames per tracker frame (32 ms)
 HOP_S = 0.008
-METHODS = ("srp-phat", "prp-rem", "dprtf-rem", "dprtf-eg")
+METHODS = ("srp-phat", "prp-rem", "dprtf-rem", "dprtf-eg", "dprtf-eg-fast")
 LABELS = {
     "srp-phat": "SRP-PHAT",
     "prp-rem": "PRP-REM",
     "dprtf-rem": "DPRTF-REM",
     "dprtf-eg": "DPRTF-EG",
+    "dprtf-eg-fast": "DPRTF-EG-fast",
 }
 TRACKERS = (
     ("VEM + EG", "gauss"),

@@ -14,6 +14,9 @@ from avtrack.localize.cgmm_eg import (
     decay_to_uniform,
     eg_update,
     evidence_change,
+    local_mass,
+    local_max,
+    place_presence,
     spatial_smoothing,
 )
 from avtrack.localize.grid import DirectionGrid
@@ -104,6 +107,10 @@ def test_spatial_smoothing_hand_case_wraps_around():
         ({"step_boost": float("nan")}, "step_boost must be a finite number >= 0"),
         ({"output_silence_rate": 0.0}, "output_silence_rate must be a finite number > 0"),
         ({"output_silence_rate": 2.0}, "output_silence_rate must be <= 1"),
+        ({"position_step": 0.0}, "position_step must be a finite number > 0"),
+        ({"position_smoothing": 1.5}, "position_smoothing must be <= 1"),
+        ({"position_share": -0.1}, "position_share must be a finite number >= 0"),
+        ({"presence_reach": -1}, "presence_reach must be an integer >= 0"),
     ],
 )
 def test_config_validation(kwargs, match):
@@ -143,6 +150,93 @@ def test_fixed_share_keeps_a_floor_and_adaptive_step_moves_faster():
 def test_evidence_gated_output_relaxes_without_features():
     loc = _eg(EGConfig(output_silence_rate=0.5))
     w = np.array([0.7, 0.1, 0.1, 0.1])
-    np.testing.assert_array_equal(loc._emit(w, True), w)
-    np.testing.assert_allclose(loc._emit(np.full(4, 9.0), False), 0.5 * w + 0.5 / 4)
-    assert _eg(EGConfig())._emit(w, False) is w  # the thesis: the heat map is w_t
+    np.testing.assert_array_equal(loc._emit(w, np.ones((1, 4))), w)
+    np.testing.assert_allclose(loc._emit(np.full(4, 9.0), None), 0.5 * w + 0.5 / 4)
+    assert _eg(EGConfig())._emit(w, None) is w  # the thesis: the heat map is w_t
+
+
+def test_local_mass_hand_cases():
+    circ = DirectionGrid.azimuths(90.0)  # 4 azimuths, circular
+    w = np.array([0.5, 0.2, 0.1, 0.2])
+    np.testing.assert_allclose(local_mass(w, circ, 0), w)
+    # w_{d-1} + w_d + w_{d+1}, wrapping around
+    np.testing.assert_allclose(local_mass(w, circ, 1), [0.9, 0.8, 0.5, 0.8])
+    lin = DirectionGrid([0.0, 10.0, 20.0, 30.0, 40.0], [0.0])  # 5 cells, not circular
+    assert not lin.circular
+    np.testing.assert_allclose(local_mass(np.arange(5.0), lin, 2), [3, 6, 10, 10, 9])
+
+
+def test_local_max_hand_cases():
+    circ = DirectionGrid.azimuths(60.0)  # 6 azimuths, circular
+    x = np.array([5.0, 1.0, 0.0, 2.0, 0.0, 1.0])
+    np.testing.assert_array_equal(local_max(x, circ, 0), x)
+    np.testing.assert_array_equal(local_max(x, circ, 1), [5, 5, 2, 2, 2, 5])
+    lin = DirectionGrid([0.0, 10.0, 20.0, 30.0], [0.0])  # not circular
+    np.testing.assert_array_equal(local_max(np.array([4.0, 0, 0, 1]), lin, 1), [4, 4, 1, 1])
+
+
+def test_place_presence_moves_the_slow_mass_onto_the_fast_peak():
+    g = DirectionGrid.azimuths(30.0)  # 12 azimuths
+    w = np.full(12, 0.01)
+    w[[1, 2]] = [0.6, 0.3]  # slow: a talker at cell 1 (sums to 1)
+    v = np.full(12, 0.01)
+    v[[2, 3, 4]] = [0.1, 0.71, 0.1]  # fast: the talker is at cell 3
+    h = place_presence(v, w, g, 2)
+    # P_d(x) = max_{|j| <= 2} M_{d+j}(x),  M_d(x) = x_{d-2} + ... + x_{d+2}
+    p_w, p_v = local_max(local_mass(w, g, 2), g, 2), local_max(local_mass(v, g, 2), g, 2)
+    np.testing.assert_allclose(h, v * p_w / p_v)
+    # around the fast peak both factors are flat: M_3(w) = 0.6 + 0.3 + 3 * 0.01 (cells 1..5),
+    # M_3(v) = 0.1 + 0.71 + 0.1 + 2 * 0.01
+    np.testing.assert_allclose(p_w[2:5], 0.93)
+    np.testing.assert_allclose(p_v[2:5], 0.93)
+    np.testing.assert_allclose(h[2:5], v[2:5])  # the shape of v, the mass of w
+    assert np.argmax(h) == 3
+    # far from the slow mass (M_d(w) = 5 * 0.01 for d = 6..10), a bump of v is scaled down:
+    # P_8(v) = M_6(v) = v_4 + v_5 + v_6 + v_7 + v_8 = 0.1 + 3 * 0.01 + 0.3
+    v2 = v.copy()
+    v2[8] = 0.3
+    assert place_presence(v2, w, g, 2)[8] == pytest.approx(0.3 * 0.05 / 0.43)
+
+
+def test_position_weights_follow_eqs_5_17_to_5_19_with_their_own_step():
+    cfg = EGConfig(position_step=0.3, position_smoothing=0.0, position_share=0.04)
+    loc = _eg(cfg)
+    w = np.array([0.7, 0.1, 0.1, 0.1])
+    dens = np.array([[0.1, 1.0, 0.2, 0.1], [0.2, 1.0, 0.1, 0.1]])
+    v0 = loc.position.copy()  # uniform
+    heat = loc._emit(w, dens)
+    ratios = dens / (dens @ v0)[:, None]
+    v1 = decay_to_uniform(eg_update(v0, ratios, 0.3, 0.1), 0.04)
+    np.testing.assert_allclose(loc.position, v1)
+    np.testing.assert_allclose(heat, place_presence(v1, w, loc.grid, cfg.presence_reach))
+    loc._emit(w, None)  # a silent frame: v relaxes at eta'
+    np.testing.assert_allclose(loc.position, decay_to_uniform(v1, 0.065))
+
+
+def _synthetic_lag(config):
+    """Lag (frames) of the heat map's argmax behind a talker walking at 30 deg/s, from
+    CGMM densities drawn around the talker's direction (8 ms frames, 5 degree grid)."""
+    rng = np.random.default_rng(0)
+    loc = _eg(config)
+    loc.grid = DirectionGrid.azimuths()
+    loc._reset_state()
+    az = loc.grid.azimuth_deg
+    n = 600
+    truth = -60.0 + 0.24 * np.arange(n)  # 30 deg/s
+    w = loc.weights
+    peak = np.empty(n)
+    for t in range(n):
+        a = truth[t] + 5.0 * rng.standard_normal(40)  # 40 features scattered around the talker
+        dens = np.exp(-0.5 * ((az[None, :] - a[:, None]) / 15.0) ** 2) + 1e-3
+        w, heat = loc._frame(w, dens)
+        peak[t] = az[np.argmax(heat)]
+    shifts = np.arange(0, 80)
+    err = [np.mean(np.abs(peak[200:] - truth[200 - s : n - s])) for s in shifts]
+    return int(shifts[np.argmin(err)])
+
+
+def test_position_weights_follow_a_moving_talker_with_a_short_lag():
+    thesis = _synthetic_lag(EGConfig())
+    fast = _synthetic_lag(EGConfig(position_step=0.3))
+    assert thesis > 20  # the thesis weights trail the talker (BENCHMARKS.md, issue 23)
+    assert fast <= 10

@@ -22,7 +22,7 @@ METHODS = sorted(LOCALIZERS)
 
 
 def test_registry_has_the_thesis_methods():
-    assert set(METHODS) == {"dprtf-eg", "dprtf-rem", "prp-rem", "srp-phat"}
+    assert set(METHODS) == {"dprtf-eg", "dprtf-eg-fast", "dprtf-rem", "prp-rem", "srp-phat"}
     for name, cls in LOCALIZERS.items():
         assert cls.name == name and issubclass(cls, Localizer)
     with pytest.raises(ValueError, match="already registered"):
@@ -95,7 +95,7 @@ def test_constructor_validation():
     assert isinstance(make_localizer("dprtf-eg", array, config=EGConfig()), Localizer)
 
 
-@pytest.mark.parametrize("method", ["dprtf-eg", "dprtf-rem", "prp-rem"])
+@pytest.mark.parametrize("method", ["dprtf-eg", "dprtf-eg-fast", "dprtf-rem", "prp-rem"])
 def test_frames_with_too_few_features_relax_to_uniform(method, static_scene):
     array, y = static_scene
     cfg = LOCALIZERS[method].Config(min_features=10**6)

@@ -7,6 +7,9 @@ Algorithms (registered in :data:`LOCALIZERS`, CLI ``avtrack localize --method NA
   directions, exponentiated-gradient weight updates with entropy regularisation and spatial
   smoothing (eqs. 5.12–5.19). Li, Ban, Girin, Alameda-Pineda, Horaud, "Online localization and
   tracking of multiple moving speakers in reverberant environments", IEEE JSTSP 2019.
+- ``dprtf-eg-fast`` -- :class:`~avtrack.localize.cgmm_eg.DPRTFEGFast`: DPRTF-EG whose peaks
+  follow a moving talker: position weights with a larger EG step set the peaks' directions,
+  the thesis weights their mass (not in the thesis; README, departures).
 - ``dprtf-rem`` -- :class:`~avtrack.localize.rem.DPRTFREM`: the same features and mixture with
   recursive-EM weights (Li et al., [81] of the thesis).
 - ``prp-rem`` -- :class:`~avtrack.localize.rem.PRPREM`: pair-wise relative phase features with
@@ -27,7 +30,7 @@ from avtrack.localize.base import (
     make_localizer,
     register_localizer,
 )
-from avtrack.localize.cgmm_eg import DPRTFEG, EGConfig
+from avtrack.localize.cgmm_eg import DPRTFEG, DPRTFEGFast, EGConfig, FastEGConfig
 from avtrack.localize.grid import DirectionGrid
 from avtrack.localize.peaks import find_peaks, local_maxima, peak_table
 from avtrack.localize.rem import DPRTFREM, PRPREM, PRPREMConfig, REMConfig
@@ -39,8 +42,10 @@ __all__ = [
     "LOCALIZERS",
     "PRPREM",
     "SRPPHAT",
+    "DPRTFEGFast",
     "DirectionGrid",
     "EGConfig",
+    "FastEGConfig",
     "HeatMaps",
     "Localizer",
     "PRPREMConfig",

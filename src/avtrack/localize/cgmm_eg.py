@@ -64,6 +64,37 @@ def _count(owner: str, name: str, value: int) -> None:
         raise ValueError(f"{owner}: {name} must be an integer >= 0, got {value!r}")
 
 
+def cgmm_densities(features: np.ndarray, means: np.ndarray, variance: float) -> np.ndarray:
+    """``N_c(ĉ_k; c_{k,d}, sigma^2)`` (eq. 5.12) up to a factor per feature ``k``.
+
+    Each row is divided by its largest entry (the largest exponent factored out), so that no
+    likelihood under- or overflows; the ratios of eq. 5.17 do not depend on that factor.
+
+    Parameters
+    ----------
+    features : ndarray (K,), complex
+    means : ndarray (K, D), complex
+    variance : float
+
+    Returns
+    -------
+    ndarray (K, D), in (0, 1], with a 1 in every row.
+    """
+    # log N_c(ĉ; c, s2) = -|ĉ - c|^2 / s2 + const = (2 Re(ĉ* c) - |c|^2) / s2 + const_k
+    log_n = (
+        2.0 * (features.real[:, None] * means.real + features.imag[:, None] * means.imag)
+        - (means.real**2 + means.imag**2)
+    ) / variance
+    log_n -= log_n.max(axis=1, keepdims=True)
+    return np.exp(log_n)
+
+
+def ratios_from_densities(dens: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``N_kd / sum_d' w_d' N_kd'`` (eq. 5.17) from :func:`cgmm_densities` ``(K, D)``."""
+    denom = dens @ weights  # sum_d' w_d' N_kd'
+    return dens / np.maximum(denom, _TINY)[:, None]
+
+
 def cgmm_likelihood_ratios(
     features: np.ndarray, means: np.ndarray, weights: np.ndarray, variance: float
 ) -> np.ndarray:
@@ -86,15 +117,7 @@ def cgmm_likelihood_ratios(
     -------
     ndarray (K, D)
     """
-    # log N_c(ĉ; c, s2) = -|ĉ - c|^2 / s2 + const = (2 Re(ĉ* c) - |c|^2) / s2 + const_k
-    log_n = (
-        2.0 * (features.real[:, None] * means.real + features.imag[:, None] * means.imag)
-        - (means.real**2 + means.imag**2)
-    ) / variance
-    log_n -= log_n.max(axis=1, keepdims=True)
-    dens = np.exp(log_n)
-    denom = dens @ weights  # sum_d' w_d' N_kd'
-    return dens / np.maximum(denom, _TINY)[:, None]
+    return ratios_from_densities(cgmm_densities(features, means, variance), weights)
 
 
 def eg_update(weights: np.ndarray, ratios: np.ndarray, step: float, entropy: float) -> np.ndarray:
@@ -152,6 +175,80 @@ def spatial_smoothing(weights: np.ndarray, grid: DirectionGrid, coef: float) -> 
     return out * (weights.sum() / out.sum())
 
 
+def local_mass(weights: np.ndarray, grid: DirectionGrid, reach: int) -> np.ndarray:
+    """``sum_{|j| <= reach} w_{d+j}``: the weight within ``reach`` azimuth cells of each
+    candidate, at the same elevation (wrapping around on a circular grid; at the ends of a
+    non-circular one, the cells that exist).
+
+    Parameters
+    ----------
+    weights : ndarray (D,)
+    grid : DirectionGrid
+    reach : int
+        Cells on each side (0: the weights themselves).
+    """
+    prev, nxt, has_prev, has_next = grid.azimuth_neighbours
+    out = weights.copy()
+    left = weights
+    right = weights
+    for _ in range(reach):
+        left = left[prev] * has_prev  # left[d] = w[d - j]
+        right = right[nxt] * has_next  # right[d] = w[d + j]
+        out += left + right
+    return out
+
+
+def local_max(values: np.ndarray, grid: DirectionGrid, reach: int) -> np.ndarray:
+    """``max_{|j| <= reach} x_{d+j}`` along azimuth, at the same elevation (wrapping around on
+    a circular grid; at the ends of a non-circular one, over the cells that exist).
+
+    Parameters
+    ----------
+    values : ndarray (D,)
+    grid : DirectionGrid
+    reach : int
+        Cells on each side.
+    """
+    prev, nxt, has_prev, has_next = grid.azimuth_neighbours
+    out = values.copy()
+    left = values
+    right = values
+    for _ in range(reach):
+        left = np.where(has_prev > 0, left[prev], -np.inf)  # left[d] = x[d - j]
+        right = np.where(has_next > 0, right[nxt], -np.inf)  # right[d] = x[d + j]
+        out = np.maximum(out, np.maximum(left, right))
+    return out
+
+
+def place_presence(
+    position: np.ndarray, presence: np.ndarray, grid: DirectionGrid, reach: int
+) -> np.ndarray:
+    """Heat map with the peaks of ``position`` and the local mass of ``presence``:
+    ``h_d = v_d P_d(w) / P_d(v)`` with ``P_d(x) = max_{|j| <= r} M_{d+j}(x)``, ``M`` the
+    :func:`local_mass` within ``r = reach`` cells (:func:`local_max` of it).
+
+    Near a peak of the position weights ``v``, ``P(v)`` is the peak's mass and ``P(w)`` the
+    largest mass of the presence weights ``w`` within ``2 r`` cells, both flat across the peak,
+    so the map keeps ``v``'s shape -- and its peak's direction -- scaled so that the peak
+    carries ``w``'s mass; where ``w`` holds no more mass than its floor, nothing stands out,
+    whatever ``v`` says.
+
+    Parameters
+    ----------
+    position, presence : ndarray (D,)
+        ``v`` and ``w``, non-negative.
+    grid : DirectionGrid
+    reach : int
+
+    Returns
+    -------
+    ndarray (D,), non-negative.
+    """
+    p_w = local_max(local_mass(presence, grid, reach), grid, reach)
+    p_v = local_max(local_mass(position, grid, reach), grid, reach)
+    return position * p_w / np.maximum(p_v, _TINY)  # h_d = v_d P_d(w) / P_d(v)
+
+
 @dataclass(frozen=True)
 class EGConfig:
     """Parameters of :class:`DPRTFEG` (thesis §5.5.1 unless stated).
@@ -189,6 +286,23 @@ class EGConfig:
         than ``min_features`` features the heat map relaxes to uniform at this rate, from the
         last map that had evidence, while the weights keep their slower ``eta'`` memory for
         the next frame with features (evidence-gated output).
+    position_step : float or None
+        None (the thesis): the heat map is ``w_t``. A step ``eta_v``: position and presence
+        are estimated apart. Second weights ``v_t``, the *position weights*, follow the same
+        features by the same update (eqs. 5.17–5.19, entropy ``gamma``, relaxation ``eta'``)
+        with this larger step, ``position_smoothing`` and ``position_share``, so that their
+        peaks keep up with a moving talker; the thesis weights ``w_t`` keep their slow memory
+        and only say *whether* someone speaks near a direction. The heat map is
+        :func:`place_presence`: ``v_t``'s shape, each peak scaled to the mass of ``w_t``
+        around it (``presence_reach``). Not in the thesis.
+    position_smoothing : float
+        Spatial smoothing coefficient of ``v_t`` (the random walk that lets its peaks move).
+    position_share : float
+        Fixed share ``alpha`` of ``v_t`` after each update (see ``share``).
+    presence_reach : int
+        ``r`` of :func:`place_presence`, in azimuth cells: the masses are summed within ``r``
+        cells and the largest taken within ``r`` cells more, so the slow weights may trail a
+        peak of ``v_t`` by up to ``2 r`` cells (3 cells: 30 degrees on the default grid).
     min_features : int
         Frames with fewer features are treated as silent (relax to uniform); 20 by default,
         chosen on simulated rooms. The thesis relaxes only when there is no feature at all
@@ -208,10 +322,17 @@ class EGConfig:
     share: float = 0.0
     step_boost: float = 0.0
     output_silence_rate: float | None = None
+    position_step: float | None = None
+    position_smoothing: float = 0.4
+    position_share: float = 0.01
+    presence_reach: int = 3
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
 
     def __post_init__(self) -> None:
         _count("EGConfig", "min_features", self.min_features)
+        _count("EGConfig", "presence_reach", self.presence_reach)
+        if self.position_step is not None:
+            _positive("EGConfig", "position_step", self.position_step)
         _positive("EGConfig", "variance", self.variance)
         _positive("EGConfig", "step", self.step)
         _positive("EGConfig", "entropy", self.entropy, allow_zero=True)
@@ -222,7 +343,7 @@ class EGConfig:
                 raise ValueError(
                     f"EGConfig: output_silence_rate must be <= 1, got {self.output_silence_rate!r}"
                 )
-        for name in ("silence_rate", "smoothing", "share"):
+        for name in ("silence_rate", "smoothing", "share", "position_smoothing", "position_share"):
             _positive("EGConfig", name, getattr(self, name), allow_zero=True)
             if getattr(self, name) > 1:
                 raise ValueError(f"EGConfig: {name} must be <= 1, got {getattr(self, name)!r}")
@@ -260,22 +381,30 @@ class CGMMLocalizer(Localizer):
         for t in range(t_):
             values, valid = self._estimator.step(spec[:, :, t])
             k = int(np.count_nonzero(valid))
+            dens = None
             if k and k >= cfg.min_features:
-                ratios = cgmm_likelihood_ratios(values[valid], self._means[valid], w, cfg.variance)
-                w = self._update(w, ratios)
-                evidence = True
-            else:
-                w = decay_to_uniform(w, cfg.silence_rate)
-                evidence = False
-            w = spatial_smoothing(w, self.grid, cfg.smoothing)
-            out[t] = self._emit(w, evidence)
+                dens = cgmm_densities(values[valid], self._means[valid], cfg.variance)
+            w, out[t] = self._frame(w, dens)
             n_obs[t] = k
         self.weights = w
         return out, n_obs
 
-    def _emit(self, weights: np.ndarray, evidence: bool) -> np.ndarray:
-        """The heat map of a frame from ``w_t`` and whether the frame had enough features
-        (by default the weights themselves)."""
+    def _frame(
+        self, weights: np.ndarray, dens: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """One frame of the recursion: ``(w_t, heat map)`` from ``w_{t-1}`` ``(D,)`` and the
+        frame's :func:`cgmm_densities` ``(K, D)`` (None: too few features, relax to uniform)."""
+        cfg = self.config
+        if dens is None:
+            w = decay_to_uniform(weights, cfg.silence_rate)
+        else:
+            w = self._update(weights, ratios_from_densities(dens, weights))
+        w = spatial_smoothing(w, self.grid, cfg.smoothing)
+        return w, self._emit(w, dens)
+
+    def _emit(self, weights: np.ndarray, dens: np.ndarray | None) -> np.ndarray:
+        """The heat map of a frame from ``w_t`` and the frame's :func:`cgmm_densities`
+        ``(K, D)`` (None: too few features); by default the weights themselves."""
         return weights
 
     @abstractmethod
@@ -288,7 +417,9 @@ class DPRTFEG(CGMMLocalizer):
     """DPRTF-EG: online DP-RTF features, CGMM, exponentiated gradient (thesis §5.2–5.3).
 
     See the module docstring for the model (eqs. 5.12–5.19). Heat maps are the weights
-    ``w_t`` ``(D,)`` after each frame (positive, summing to one).
+    ``w_t`` ``(D,)`` after each frame (positive, summing to one), or with
+    ``EGConfig.position_step`` set, the position weights' peaks carrying the local mass of
+    ``w_t`` (:func:`place_presence`; non-negative, summing to about one).
     """
 
     Config: ClassVar[type] = EGConfig
@@ -297,6 +428,7 @@ class DPRTFEG(CGMMLocalizer):
     def _reset_state(self) -> None:
         super()._reset_state()
         self._heat = self.weights.copy()
+        self.position = self.weights.copy()  #: position weights v_t (D,)
 
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
         cfg = self.config
@@ -308,9 +440,46 @@ class DPRTFEG(CGMMLocalizer):
             w = decay_to_uniform(w, cfg.share)  # fixed share (Herbster & Warmuth 1998)
         return w
 
-    def _emit(self, weights: np.ndarray, evidence: bool) -> np.ndarray:
-        rate = self.config.output_silence_rate
+    def _emit(self, weights: np.ndarray, dens: np.ndarray | None) -> np.ndarray:
+        cfg = self.config
+        heat = weights
+        if cfg.position_step is not None:
+            v = self.position
+            if dens is None:
+                v = decay_to_uniform(v, cfg.silence_rate)
+            else:
+                # eqs. 5.17-5.19 with the step eta_v, then a fixed share
+                v = eg_update(v, ratios_from_densities(dens, v), cfg.position_step, cfg.entropy)
+                v = decay_to_uniform(v, cfg.position_share)
+            v = spatial_smoothing(v, self.grid, cfg.position_smoothing)
+            self.position = v
+            heat = place_presence(v, weights, self.grid, cfg.presence_reach)
+        rate = cfg.output_silence_rate
         if rate is None:
-            return weights
-        self._heat = weights if evidence else decay_to_uniform(self._heat, rate)
+            return heat
+        self._heat = heat if dens is not None else decay_to_uniform(self._heat, rate)
         return self._heat
+
+
+@dataclass(frozen=True)
+class FastEGConfig(EGConfig):
+    """:class:`EGConfig` with the position weights on (``position_step = 0.3``, position
+    smoothing 0.4, share 0.01, presence reach 3 cells), chosen on development seeds 10–15 of
+    both simulated scene kinds (BENCHMARKS.md, issue 23)."""
+
+    position_step: float | None = 0.3
+
+
+@register_localizer("dprtf-eg-fast")
+class DPRTFEGFast(DPRTFEG):
+    """DPRTF-EG whose heat-map peaks follow a moving talker (not in the thesis).
+
+    The thesis weights ``w_t`` (eqs. 5.15–5.19, :class:`DPRTFEG`) keep their slow memory and
+    say *how much* talker there is near each direction; position weights ``v_t``, updated by
+    the same eqs. 5.17–5.19 from the same features with a larger step, wider spatial
+    smoothing and a fixed share, say *where*. The heat map is :func:`place_presence`:
+    ``v_t``'s peaks carrying ``w_t``'s local mass (non-negative, summing to about one; peaks
+    as wide as ``v_t``'s). See :class:`FastEGConfig`.
+    """
+
+    Config: ClassVar[type] = FastEGConfig
