@@ -98,7 +98,9 @@ def test_predicted_concentration_eq_5_56():
 
 # --- E-S and E-Z steps ---------------------------------------------------------------------
 def test_one_vem_iteration_matches_eqs_5_56_to_5_59():
-    cfg = VonMisesConfig(n_iter=1, learn_kappa_y=False, learn_kappa_d=False, update_priors=False)
+    cfg = VonMisesConfig(
+        n_iter=1, learn_kappa_y=False, learn_kappa_d=False, update_priors=False, velocity_std=0.0
+    )
     tracker = VonMisesDOATracker(cfg)
     tracker.ids = np.array([1, 2])
     tracker.mu = np.array([0.2, -2.0])
@@ -138,7 +140,7 @@ def test_one_vem_iteration_matches_eqs_5_56_to_5_59():
 
 def test_m_step_gradients_move_the_concentrations_the_right_way():
     """Consistent observations (tight around the track) raise κ_y (A.3.1)."""
-    cfg = VonMisesConfig(n_iter=3, kappa_y=20.0, learn_kappa_d=False)
+    cfg = VonMisesConfig(n_iter=3, kappa_y=20.0, learn_kappa_d=False, velocity_std=0.0)
     tracker = VonMisesDOATracker(cfg)
     tracker.ids, tracker.mu, tracker.kappa = np.array([1]), np.array([0.5]), np.array([200.0])
     tracker.activity.add(1)
@@ -255,10 +257,10 @@ def test_config_validation():
 
 # --- constant-velocity prediction -------------------------------------------------------------
 def test_velocity_off_is_the_static_model():
-    """``velocity_std = 0`` (the default) is eqs. 5.49 and 5.55–5.56: ν stays 0."""
+    """``velocity_std = 0`` is the thesis's model, eqs. 5.49 and 5.55–5.56: ν stays 0."""
     az = moving(-60.0, 20.0)[:, None]
     seq, _ = scene(az, np.ones(az.shape, bool))
-    tracker = make_tracker("vonmises")
+    tracker = VonMisesDOATracker(VonMisesConfig(velocity_std=0.0))
     tracker.run(seq)
     assert np.all(tracker.nu == 0.0)
 

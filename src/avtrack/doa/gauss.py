@@ -77,7 +77,7 @@ class GaussConfig:
     """Parameters of :class:`GaussDOATracker` (thesis §5.5.1 values where it gives them)."""
 
     n_iter: int = 3  #: VEM iterations per frame (thesis: 5)
-    obs_var: float = 0.0012  #: σ² of Σ = σ² I₂ (thesis: 0.03, for its weight scale)
+    obs_var: float = 0.0003  #: σ² of Σ = σ² I₂ (thesis: 0.03, for its weight scale)
     log_clutter_density: float = 0.0  #: log U(vol B) of a direction vector, eq. 5.22
     dyn_std_dir: float = 0.04  #: Λ: std of each unit-vector component per frame
     dyn_std_vel: float = 0.1  #: Λ: std of the angular velocity per frame, rad/s

@@ -192,12 +192,13 @@ class VonMisesConfig:
     birth_candidates: int = 2  #: unassigned DOAs per frame (highest confidence) in sequences
     birth_threshold: float = 1.7  #: on log τ_j + (L + 1) log 2π (eq. 5.61 vs clutter)
     birth_min_separation_deg: float = 20.0  #: no birth this close to an existing track
+    birth_floor: float = 0.05  #: DOAs of a lower confidence cannot start a source
     activity_frames: int = 3  #: D + 1 of eq. 5.62 (D = 2)
-    activity_threshold: float = 0.05  #: δ of eq. 5.62 (thesis: 0.025, for its confidences)
+    activity_threshold: float = 0.035  #: δ of eq. 5.62 (thesis: 0.025, for its confidences)
     death_s: float = 10.0  #: delete a track silent this long, seconds
     merge_deg: float = 8.0  #: a track this close to an older one ...
     merge_s: float = 1.5  #: ... for this long is deleted (a duplicate), seconds
-    velocity_std: float = 0.0  #: q: std of the angular velocity's change per frame, rad/s (0: off)
+    velocity_std: float = 0.05  #: std of the angular velocity's change per frame, rad/s
     birth_velocity_std: float = 0.5  #: prior std of the angular velocity at birth, rad/s
     silent_velocity_decay: float = 0.8  #: the velocity is multiplied by this per silent frame
 
@@ -217,6 +218,7 @@ class VonMisesConfig:
                 "activity_threshold",
                 "birth_min_separation_deg",
                 "merge_deg",
+                "birth_floor",
             ),
             counts=("n_iter", "birth_frames", "birth_candidates", "activity_frames"),
         )
@@ -394,7 +396,7 @@ class VonMisesDOATracker(DOATracker):
                 self.shadowed = self.shadowed[keep]
                 score, active = score[keep], active[keep]
         # --- birth (§5.6.4) -------------------------------------------------------------------
-        cand = np.flatnonzero(unassigned & (weight > 0))
+        cand = np.flatnonzero(unassigned & (weight > 0) & (weight >= cfg.birth_floor))
         if cand.size > cfg.birth_candidates:
             cand = cand[np.argsort(-weight[cand], kind="stable")[: cfg.birth_candidates]]
         self._pool.append((y[cand], weight[cand]))
