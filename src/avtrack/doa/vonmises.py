@@ -39,6 +39,15 @@ Readings of the printed equations (derived again from the model):
   \hat\omega\cos(\hat y - \hat\mu)` (eq. 5.61's recursion omits the 2); the new source
   starts from the posterior at ``t`` (the last observation included), and the statistic is
   compared with the clutter likelihood :math:`(2\pi)^{-(L+1)}` as a log ratio.
+* Constant-velocity prediction (``velocity_std > 0``, the default; 0 gives eqs. 5.49 and
+  5.55–5.56 as printed). Each source also carries an angular velocity :math:`\nu_{tn}` with a
+  Gaussian spread; the prediction is :math:`\tilde s = \mu_{t-1,n} + \nu_{t-1,n}\Delta t`
+  whose variance :math:`1/\kappa + 2\Delta t\,c + \Delta t^2 v` (``c`` = Cov(s, ν),
+  ``v`` = Var(ν)) replaces :math:`1/\kappa_{t-1,n}` in eq. 5.56, and after the E-S step
+  :math:`\nu` is conditioned on the new direction as in a Kalman filter whose observations
+  inform the direction only: :math:`\nu \leftarrow \nu + \frac{\mathrm{Cov}(\tilde s,
+  \nu)}{\mathrm{Var}(\tilde s)}(\mu_{tn} - \tilde s)`, with :math:`\mathrm{Var} = 1/\kappa`.
+  The static model of eq. 5.49 trails a moving talker; a silent source's velocity decays.
 * The M-step gradient steps on the concentrations are taken on :math:`\log\kappa`
   (:math:`\partial Q/\partial\log\kappa = \kappa\,\partial Q/\partial\kappa`), which keeps
   them positive and makes one step size fit the very different scales of :math:`\kappa_y` and
