@@ -269,7 +269,10 @@ def test_velocity_update_is_gaussian_conditioning_on_the_direction():
     """One frame by hand: prediction s̃ = μ + νΔt with Var(s̃) = 1/κ + 2Δt c + Δt² v, the E-S
     step of eqs. 5.57–5.58 on the prediction, then ν = ν̃ + Cov(s̃, ν̃)/Var(s̃)·(μ - s̃)."""
     cfg = VonMisesConfig(
-        n_iter=1, learn_kappa_y=False, learn_kappa_d=False, update_priors=False,
+        n_iter=1,
+        learn_kappa_y=False,
+        learn_kappa_d=False,
+        update_priors=False,
         velocity_std=0.3,
     )
     tracker = VonMisesDOATracker(cfg, frame_period_s=0.032)

@@ -374,8 +374,9 @@ class VonMisesDOATracker(DOATracker):
             resid = np.mod(mu - mu_prev + np.pi, 2 * np.pi) - np.pi
             self.nu = self.nu + gain * resid
             self.cov_sv = cov_sv * shrink
-            self.var_v = np.minimum(var_v - gain * cov_sv * (1.0 - shrink),
-                                    cfg.birth_velocity_std**2)
+            self.var_v = np.minimum(
+                var_v - gain * cov_sv * (1.0 - shrink), cfg.birth_velocity_std**2
+            )
         return alpha, omega.dot(alpha[:, 1:])
 
     def _step(self, azimuth_rad: np.ndarray, weight: np.ndarray) -> TrackFrame:
