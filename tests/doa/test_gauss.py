@@ -290,13 +290,14 @@ def test_heatmap_sequence_above_median_removes_the_floor():
     np.testing.assert_allclose(raw.weight[0], [0.1, 0.2, 0.3, 0.4])
     peaks = heatmap_sequence(w, az, step=2, observations="peaks", floor=0.35)
     np.testing.assert_allclose(peaks.azimuth_deg[0], [180.0])
-    # peaks at or above 1.44 x the uniform weight 1/4: block means 0.25 / 0.35 at the peaks
+    # peaks of each block's last frame at or above 1.44 x the uniform weight 1/4 = 0.36
     over = heatmap_sequence(w, az, step=2, observations="peaks-over-uniform")
     assert UNIFORM_PEAK_FLOOR / 4 == pytest.approx(0.36)
-    np.testing.assert_allclose(over.azimuth_deg[0], [180.0])  # 0.4 >= 0.36
-    assert over.azimuth_deg[1].size == 0  # block mean [0.3, 0.2, 0.3, 0.2]: peaks 0.3 < 0.36
+    np.testing.assert_allclose(over.azimuth_deg[0], [180.0])  # [.1 .2 .3 .4]: 0.4 >= 0.36
+    np.testing.assert_allclose(over.weight[0], [0.4])
+    np.testing.assert_allclose(over.azimuth_deg[1], [90.0])  # [.2 .1 .4 .3], not the mean
     scaled = heatmap_sequence(0.5 * w + 0.5 / 4, az, step=2, observations="peaks-over-uniform")
-    assert scaled.azimuth_deg[0].size == 0  # the same map pulled halfway to uniform
+    assert all(a.size == 0 for a in scaled.azimuth_deg)  # pulled halfway to uniform: 0.325
     with pytest.raises(ValueError, match="observations must be one of"):
         heatmap_sequence(w, az, observations="median")
     with pytest.raises(ValueError, match="baseline must be"):

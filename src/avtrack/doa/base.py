@@ -62,8 +62,10 @@ FRAME_PERIOD_S = 0.032
 #: with its weight (``"all"``, thesis §5.4 as written), every candidate with the frame's median
 #: weight subtracted and clipped at 0 (``"above-median"``), only the peaks of the heat map at or
 #: above a fixed weight (``"peaks"``, the peak lists of §5.6.5), or only the peaks at or above
-#: :data:`UNIFORM_PEAK_FLOOR` times the uniform weight ``1/D`` of the ``D`` candidates
-#: (``"peaks-over-uniform"``: a floor that does not depend on how high a heat map's peaks are).
+#: :data:`UNIFORM_PEAK_FLOOR` times the uniform weight ``1/D`` of the ``D`` candidates in the
+#: block's last localizer frame (``"peaks-over-uniform"``: a floor that does not depend on how
+#: high a heat map's peaks are, and the frame that peak picking reports, without the 1.5 frames
+#: of delay of a 4-frame mean). The other modes take the block's mean weights.
 OBSERVATION_MODES = ("all", "above-median", "peaks", "peaks-over-uniform")
 
 #: What each tracker observes by default: the peaks of the heat map above 1.44 times the
@@ -309,9 +311,10 @@ def heatmap_sequence(
 ) -> DOASequence:
     """Tracker observations from heat maps ``(T, D)`` in one of :data:`OBSERVATION_MODES`.
 
-    One tracker frame per ``step`` localizer frames with the block's mean weights (thesis
-    §5.5.2: 4, i.e. 32 ms); ``"peaks"`` keeps the peaks at or above ``floor`` (the other modes
-    ignore it), ``"peaks-over-uniform"`` those at or above :data:`UNIFORM_PEAK_FLOOR` ``/ D``.
+    One tracker frame per ``step`` localizer frames (thesis §5.5.2: 4, i.e. 32 ms) with the
+    block's mean weights, or its last frame's for ``"peaks-over-uniform"``; ``"peaks"`` keeps
+    the peaks at or above ``floor`` (the other modes ignore it), ``"peaks-over-uniform"`` those
+    at or above :data:`UNIFORM_PEAK_FLOOR` ``/ D``.
     Use ``DEFAULT_OBSERVATIONS[tracker]`` for a tracker's default.
     """
     if observations not in OBSERVATION_MODES:
@@ -327,7 +330,7 @@ def heatmap_sequence(
         frames,
         time_s,
         step=step,
-        mode="mean",
+        mode="last" if observations == "peaks-over-uniform" else "mean",
         peaks_only=peaks,
         floor=floor if peaks else 0.0,
         baseline="median" if observations == "above-median" else "none",
