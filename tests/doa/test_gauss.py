@@ -12,6 +12,7 @@ from avtrack.doa.base import (
     DEFAULT_OBSERVATIONS,
     FRAME_PERIOD_S,
     TRACKERS,
+    UNIFORM_PEAK_FLOOR,
     DOASequence,
     SpeakerActivity,
     circular_peaks,
@@ -35,7 +36,7 @@ GRID = -180.0 + 5.0 * np.arange(1, 73)  # thesis §5.5.1: 72 azimuths every 5°
 OBS = DEFAULT_OBSERVATIONS["gauss"]  # how the tracker observes a heat map by default
 
 
-def scene(az: np.ndarray, on: np.ndarray, seed: int = 0, **kw):
+def scene(az: np.ndarray, on: np.ndarray, seed: int = 0, observations: str = OBS, **kw):
     """Heat maps of sources ``az (T, K)`` and the matching ground truth (32 ms frames)."""
     rng = np.random.default_rng(seed)
     t_, k = az.shape
@@ -50,7 +51,7 @@ def scene(az: np.ndarray, on: np.ndarray, seed: int = 0, **kw):
         np.ones(az.size),
         on.ravel(),
     )
-    return heatmap_sequence(w, GRID, time_s=t, step=1, observations=OBS), truth
+    return heatmap_sequence(w, GRID, time_s=t, step=1, observations=observations), truth
 
 
 def moving(start: float, speed_deg_s: float, n: int = 250) -> np.ndarray:
@@ -289,6 +290,14 @@ def test_heatmap_sequence_above_median_removes_the_floor():
     np.testing.assert_allclose(raw.weight[0], [0.1, 0.2, 0.3, 0.4])
     peaks = heatmap_sequence(w, az, step=2, observations="peaks", floor=0.35)
     np.testing.assert_allclose(peaks.azimuth_deg[0], [180.0])
+    # peaks of each block's last frame at or above 1.44 x the uniform weight 1/4 = 0.36
+    over = heatmap_sequence(w, az, step=2, observations="peaks-over-uniform")
+    assert UNIFORM_PEAK_FLOOR / 4 == pytest.approx(0.36)
+    np.testing.assert_allclose(over.azimuth_deg[0], [180.0])  # [.1 .2 .3 .4]: 0.4 >= 0.36
+    np.testing.assert_allclose(over.weight[0], [0.4])
+    np.testing.assert_allclose(over.azimuth_deg[1], [90.0])  # [.2 .1 .4 .3], not the mean
+    scaled = heatmap_sequence(0.5 * w + 0.5 / 4, az, step=2, observations="peaks-over-uniform")
+    assert all(a.size == 0 for a in scaled.azimuth_deg)  # pulled halfway to uniform: 0.325
     with pytest.raises(ValueError, match="observations must be one of"):
         heatmap_sequence(w, az, observations="median")
     with pytest.raises(ValueError, match="baseline must be"):
@@ -317,7 +326,7 @@ def test_zero_weight_candidates_change_nothing():
     # eq. 5.22: a weight-0 candidate has precision 0 (pure clutter), so leaving the zeros of
     # "above-median" out of each frame must give the same tracks and activity statistics
     az = np.stack([moving(-60, 20), moving(80, -15)], axis=1)
-    seq, _ = scene(az, np.ones(az.shape, bool), seed=3)
+    seq, _ = scene(az, np.ones(az.shape, bool), seed=3, observations="above-median")
     assert any((w == 0).any() for w in seq.weight)
     keep = [w > 0 for w in seq.weight]
     sparse = DOASequence(

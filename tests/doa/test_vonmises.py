@@ -98,7 +98,9 @@ def test_predicted_concentration_eq_5_56():
 
 # --- E-S and E-Z steps ---------------------------------------------------------------------
 def test_one_vem_iteration_matches_eqs_5_56_to_5_59():
-    cfg = VonMisesConfig(n_iter=1, learn_kappa_y=False, learn_kappa_d=False, update_priors=False)
+    cfg = VonMisesConfig(
+        n_iter=1, learn_kappa_y=False, learn_kappa_d=False, update_priors=False, velocity_std=0.0
+    )
     tracker = VonMisesDOATracker(cfg)
     tracker.ids = np.array([1, 2])
     tracker.mu = np.array([0.2, -2.0])
@@ -138,7 +140,7 @@ def test_one_vem_iteration_matches_eqs_5_56_to_5_59():
 
 def test_m_step_gradients_move_the_concentrations_the_right_way():
     """Consistent observations (tight around the track) raise κ_y (A.3.1)."""
-    cfg = VonMisesConfig(n_iter=3, kappa_y=20.0, learn_kappa_d=False)
+    cfg = VonMisesConfig(n_iter=3, kappa_y=20.0, learn_kappa_d=False, velocity_std=0.0)
     tracker = VonMisesDOATracker(cfg)
     tracker.ids, tracker.mu, tracker.kappa = np.array([1]), np.array([0.5]), np.array([200.0])
     tracker.activity.add(1)
@@ -251,3 +253,66 @@ def test_config_validation():
     with pytest.raises(ValueError, match="unknown field"):
         build_config(VonMisesConfig, {"kappa": 1.0})
     assert build_config(VonMisesConfig, {"kappa_y": 50.0}).kappa_y == 50.0
+
+
+# --- constant-velocity prediction -------------------------------------------------------------
+def test_velocity_off_is_the_static_model():
+    """``velocity_std = 0`` is the thesis's model, eqs. 5.49 and 5.55–5.56: ν stays 0."""
+    az = moving(-60.0, 20.0)[:, None]
+    seq, _ = scene(az, np.ones(az.shape, bool))
+    tracker = VonMisesDOATracker(VonMisesConfig(velocity_std=0.0))
+    tracker.run(seq)
+    assert np.all(tracker.nu == 0.0)
+
+
+def test_velocity_update_is_gaussian_conditioning_on_the_direction():
+    """One frame by hand: prediction s̃ = μ + νΔt with Var(s̃) = 1/κ + 2Δt c + Δt² v, the E-S
+    step of eqs. 5.57–5.58 on the prediction, then ν = ν̃ + Cov(s̃, ν̃)/Var(s̃)·(μ - s̃)."""
+    cfg = VonMisesConfig(
+        n_iter=1,
+        learn_kappa_y=False,
+        learn_kappa_d=False,
+        update_priors=False,
+        velocity_std=0.3,
+    )
+    tracker = VonMisesDOATracker(cfg, frame_period_s=0.032)
+    tracker.ids, tracker.mu, tracker.kappa = np.array([1]), np.array([0.1]), np.array([400.0])
+    tracker.nu, tracker.cov_sv, tracker.var_v = np.array([0.5]), np.array([0.01]), np.array([0.05])
+    tracker.activity.add(1)
+    tracker.shadowed = np.zeros(1, dtype=np.int64)
+    y, om = np.array([0.15]), np.array([1.0])
+    alpha, _ = tracker._vem(y, om)
+    dt = 0.032
+    s_pred = 0.1 + 0.5 * dt
+    var_s = 1 / 400.0 + 2 * dt * 0.01 + dt * dt * 0.05
+    cov = 0.01 + dt * 0.05
+    var_v = 0.05 + 0.3**2  # below the cap birth_velocity_std²
+    k_t = inv_bessel_ratio(bessel_ratio(1 / var_s) * bessel_ratio(cfg.kappa_d))  # eq. 5.56
+    x = cfg.kappa_y * alpha[0, 1]
+    c = k_t * np.cos(s_pred) + x * np.cos(0.15)
+    s = k_t * np.sin(s_pred) + x * np.sin(0.15)
+    mu, kappa = np.arctan2(s, c), np.hypot(c, s)  # eqs. 5.57–5.58
+    assert tracker.mu[0] == pytest.approx(mu) and tracker.kappa[0] == pytest.approx(kappa)
+    gain = cov * k_t
+    shrink = k_t / kappa
+    assert tracker.nu[0] == pytest.approx(0.5 + gain * (mu - s_pred))
+    assert tracker.cov_sv[0] == pytest.approx(cov * shrink)
+    assert tracker.var_v[0] == pytest.approx(var_v - gain * cov * (1 - shrink))
+
+
+def test_velocity_removes_the_lag_on_a_moving_source():
+    """At 40°/s the static model trails the source; the constant-velocity prediction learns
+    the angular velocity and removes the trailing bias."""
+    az = moving(-80.0, 40.0, 300)[:, None]
+    seq, _ = scene(az, np.ones(az.shape, bool), seed=3)
+    bias = {}
+    for q in (0.0, 0.3):
+        tracker = VonMisesDOATracker(VonMisesConfig(velocity_std=q))
+        tracks = tracker.run(seq)
+        late = tracks.active & (tracks.frames >= 100)
+        trail = wrap_azimuth(az[tracks.frames[late], 0] - tracks.azimuth_deg[late])
+        bias[q] = float(np.mean(trail))  # > 0: the estimate trails the source
+        if q:
+            assert np.rad2deg(tracker.nu).mean() == pytest.approx(40.0, abs=8.0)
+    assert bias[0.0] > 0.5
+    assert abs(bias[0.3]) < 0.3 * bias[0.0]

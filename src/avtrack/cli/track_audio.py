@@ -108,8 +108,9 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         "--observations",
         choices=OBSERVATION_MODES,
         help="from heat maps: every candidate direction with its weight (all), the same with "
-        "each frame's median weight removed (above-median), or only the peaks (default: "
-        "above-median for gauss, peaks for vonmises)",
+        "each frame's median weight removed (above-median), only the peaks >= 0.05 (peaks), "
+        "or only the peaks >= 1.44 x the uniform weight (peaks-over-uniform); default: "
+        "above-median for gauss, peaks-over-uniform for vonmises",
     )
     p.add_argument(
         "--step",

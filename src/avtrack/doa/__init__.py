@@ -3,8 +3,9 @@
 Trackers (registered in :data:`TRACKERS`, CLI ``avtrack track-audio --tracker NAME``):
 
 - ``gauss`` -- :class:`~avtrack.doa.gauss.GaussDOATracker`: Gaussian VEM tracker on
-  unit-direction states with every candidate direction as an observation weighted by its
-  localizer weight (thesis §5.4, eqs. 5.20–5.43). Li, Ban, Girin, Alameda-Pineda, Horaud,
+  unit-direction states with candidate directions (by default the heat map's peaks) as
+  observations weighted by their localizer weight (thesis §5.4, eqs. 5.20–5.43). Li, Ban,
+  Girin, Alameda-Pineda, Horaud,
   "Online localization and tracking of multiple moving speakers in reverberant environments",
   IEEE JSTSP 2019.
 - ``vonmises`` -- :class:`~avtrack.doa.vonmises.VonMisesDOATracker`: von Mises VEM

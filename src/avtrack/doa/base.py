@@ -60,19 +60,32 @@ FRAME_PERIOD_S = 0.032
 
 #: How a tracker can observe a heat map (:func:`heatmap_sequence`): every candidate direction
 #: with its weight (``"all"``, thesis §5.4 as written), every candidate with the frame's median
-#: weight subtracted and clipped at 0 (``"above-median"``), or only the peaks of the heat map
-#: (``"peaks"``, the peak lists of §5.6.5).
-OBSERVATION_MODES = ("all", "above-median", "peaks")
+#: weight subtracted and clipped at 0 (``"above-median"``), only the peaks of the heat map at or
+#: above a fixed weight (``"peaks"``, the peak lists of §5.6.5), or only the peaks at or above
+#: :data:`UNIFORM_PEAK_FLOOR` times the uniform weight ``1/D`` of the ``D`` candidates in the
+#: block's last localizer frame (``"peaks-over-uniform"``: a floor that does not depend on how
+#: high a heat map's peaks are, and the frame that peak picking reports, without the 1.5 frames
+#: of delay of a 4-frame mean). The other modes take the block's mean weights.
+OBSERVATION_MODES = ("all", "above-median", "peaks", "peaks-over-uniform")
 
-#: What each tracker observes by default. The Gaussian tracker takes every candidate but
-#: without the frame's median weight: the EG weights keep a near-uniform floor (the entropy
-#: regularisation of eq. 5.19), and with every weight acting as a precision (eq. 5.22) that
-#: floor pins a silent track where it is and spreads its activity mass (eq. 5.43) over ±40°;
-#: see BENCHMARKS.md (acoustic multi-speaker tracking) for the measured effect.
-DEFAULT_OBSERVATIONS = {"gauss": "above-median", "vonmises": "peaks"}
+#: What each tracker observes by default. The von Mises tracker takes the peaks of the heat map
+#: above 1.44 times the uniform weight (a peak floor fixed at 0.05 hid a third of the speech
+#: frames from it). The Gaussian tracker takes every candidate without the frame's median
+#: weight: the EG weights keep a near-uniform floor (the entropy regularisation of eq. 5.19),
+#: and with every weight acting as a precision (eq. 5.22) that floor pins a silent track where
+#: it is and spreads its activity mass (eq. 5.43) over ±40°. Its direction is then the centroid
+#: of the whole lobe, which trails a moving talker by 10-20 frames of 8 ms and adds about 1° of
+#: error; ``"peaks-over-uniform"`` with ``GaussConfig(obs_var=0.0003)`` removes that, but raises
+#: its miss rate above peak picking's on LOCATA-like scenes (issue 5's criterion), so it is an
+#: option. See BENCHMARKS.md (issue 23, fourth session).
+DEFAULT_OBSERVATIONS = {"gauss": "above-median", "vonmises": "peaks-over-uniform"}
 
-#: Peaks of a block-mean heat map below this weight are not observations.
+#: Peaks of a block-mean heat map below this weight are not observations (mode ``"peaks"``).
 PEAK_FLOOR = 0.05
+
+#: Mode ``"peaks-over-uniform"``: peaks below this multiple of the uniform weight ``1/D`` are
+#: not observations (1.44 / 72 = 0.02 on the default 5° grid).
+UNIFORM_PEAK_FLOOR = 1.44
 
 
 #: Class decorator registering a :class:`DOATracker` subclass under a name.
@@ -302,22 +315,26 @@ def heatmap_sequence(
 ) -> DOASequence:
     """Tracker observations from heat maps ``(T, D)`` in one of :data:`OBSERVATION_MODES`.
 
-    One tracker frame per ``step`` localizer frames with the block's mean weights (thesis
-    §5.5.2: 4, i.e. 32 ms); ``"peaks"`` keeps the peaks at or above ``floor`` (the other modes
-    ignore it). Use ``DEFAULT_OBSERVATIONS[tracker]`` for a tracker's default.
+    One tracker frame per ``step`` localizer frames (thesis §5.5.2: 4, i.e. 32 ms) with the
+    block's mean weights, or its last frame's for ``"peaks-over-uniform"``; ``"peaks"`` keeps
+    the peaks at or above ``floor`` (the other modes ignore it), ``"peaks-over-uniform"`` those
+    at or above :data:`UNIFORM_PEAK_FLOOR` ``/ D``.
+    Use ``DEFAULT_OBSERVATIONS[tracker]`` for a tracker's default.
     """
     if observations not in OBSERVATION_MODES:
         raise ValueError(
             f"observations must be one of {OBSERVATION_MODES}, got {observations!r}"
         )
-    peaks = observations == "peaks"
+    peaks = observations.startswith("peaks")
+    if observations == "peaks-over-uniform":
+        floor = UNIFORM_PEAK_FLOOR / max(int(np.shape(weights)[-1]), 1)
     return DOASequence.from_weights(
         weights,
         azimuth_deg,
         frames,
         time_s,
         step=step,
-        mode="mean",
+        mode="last" if observations == "peaks-over-uniform" else "mean",
         peaks_only=peaks,
         floor=floor if peaks else 0.0,
         baseline="median" if observations == "above-median" else "none",

@@ -2,9 +2,13 @@ r"""Gaussian VEM multi-speaker DOA tracker (thesis §5.4, eqs. 5.20–5.43, Algo
 
 State of speaker ``n``: :math:`s_{tn} = [u_{tn}; v_{tn}]` with the unit direction vector
 :math:`u_{tn} = (\cos\theta_{tn}, \sin\theta_{tn})` and the angular velocity :math:`v_{tn}`
-(rad/s). Observations: every candidate direction :math:`b_{td}` of the localizer with its
-weight :math:`w_{td}` as a precision (:class:`~avtrack.doa.model.WeightedDirectionModel`,
-eq. 5.22); uniform assignment priors :math:`\pi_{dn} = 1/(N+1)` (eq. 5.23).
+(rad/s). Observations: candidate directions :math:`b_{td}` of the localizer with their
+weights :math:`w_{td}` as precisions (:class:`~avtrack.doa.model.WeightedDirectionModel`,
+eq. 5.22) -- by default every candidate above the frame's median weight
+(:data:`~avtrack.doa.base.DEFAULT_OBSERVATIONS`; the E-S step then returns the centroid of
+the whole lobe, which trails a moving talker; ``"peaks-over-uniform"`` observations with
+``obs_var=0.0003`` follow the peaks instead, an option); uniform assignment priors
+:math:`\pi_{dn} = 1/(N+1)` (eq. 5.23).
 
 Dynamics (eqs. 5.25–5.27): :math:`p(s_{tn}|s_{t-1,n}) = \mathcal{N}(D_{t-1,n}s_{t-1,n},
 \Lambda)`, with the transition linearised around the previous direction,
@@ -77,7 +81,7 @@ class GaussConfig:
     """Parameters of :class:`GaussDOATracker` (thesis §5.5.1 values where it gives them)."""
 
     n_iter: int = 3  #: VEM iterations per frame (thesis: 5)
-    obs_var: float = 0.0012  #: σ² of Σ = σ² I₂ (thesis: 0.03, for its weight scale)
+    obs_var: float = 0.0012  #: σ² of Σ = σ² I₂ (thesis: 0.03, its weight scale; 0.0003 on peaks)
     log_clutter_density: float = 0.0  #: log U(vol B) of a direction vector, eq. 5.22
     dyn_std_dir: float = 0.04  #: Λ: std of each unit-vector component per frame
     dyn_std_vel: float = 0.1  #: Λ: std of the angular velocity per frame, rad/s

@@ -39,6 +39,15 @@ Readings of the printed equations (derived again from the model):
   \hat\omega\cos(\hat y - \hat\mu)` (eq. 5.61's recursion omits the 2); the new source
   starts from the posterior at ``t`` (the last observation included), and the statistic is
   compared with the clutter likelihood :math:`(2\pi)^{-(L+1)}` as a log ratio.
+* Constant-velocity prediction (``velocity_std > 0``, the default; 0 gives eqs. 5.49 and
+  5.55–5.56 as printed). Each source also carries an angular velocity :math:`\nu_{tn}` with a
+  Gaussian spread; the prediction is :math:`\tilde s = \mu_{t-1,n} + \nu_{t-1,n}\Delta t`
+  whose variance :math:`1/\kappa + 2\Delta t\,c + \Delta t^2 v` (``c`` = Cov(s, ν),
+  ``v`` = Var(ν)) replaces :math:`1/\kappa_{t-1,n}` in eq. 5.56, and after the E-S step
+  :math:`\nu` is conditioned on the new direction as in a Kalman filter whose observations
+  inform the direction only: :math:`\nu \leftarrow \nu + \frac{\mathrm{Cov}(\tilde s,
+  \nu)}{\mathrm{Var}(\tilde s)}(\mu_{tn} - \tilde s)`, with :math:`\mathrm{Var} = 1/\kappa`.
+  The static model of eq. 5.49 trails a moving talker; a silent source's velocity decays.
 * The M-step gradient steps on the concentrations are taken on :math:`\log\kappa`
   (:math:`\partial Q/\partial\log\kappa = \kappa\,\partial Q/\partial\kappa`), which keeps
   them positive and makes one step size fit the very different scales of :math:`\kappa_y` and
@@ -192,24 +201,48 @@ class VonMisesConfig:
     birth_candidates: int = 2  #: unassigned DOAs per frame (highest confidence) in sequences
     birth_threshold: float = 1.7  #: on log τ_j + (L + 1) log 2π (eq. 5.61 vs clutter)
     birth_min_separation_deg: float = 20.0  #: no birth this close to an existing track
+    birth_floor: float = 0.05  #: DOAs of a lower confidence cannot start a source
     activity_frames: int = 3  #: D + 1 of eq. 5.62 (D = 2)
-    activity_threshold: float = 0.05  #: δ of eq. 5.62 (thesis: 0.025, for its confidences)
+    activity_threshold: float = 0.035  #: δ of eq. 5.62 (thesis: 0.025, for its confidences)
     death_s: float = 10.0  #: delete a track silent this long, seconds
     merge_deg: float = 8.0  #: a track this close to an older one ...
     merge_s: float = 1.5  #: ... for this long is deleted (a duplicate), seconds
+    velocity_std: float = 0.05  #: std of the angular velocity's change per frame, rad/s
+    birth_velocity_std: float = 0.5  #: prior std of the angular velocity at birth, rad/s
+    silent_velocity_decay: float = 0.8  #: the velocity is multiplied by this per silent frame
 
     def __post_init__(self) -> None:
         check_config_fields(
             self,
-            positive=("kappa_y", "kappa_d", "kappa_rate", "death_s", "merge_s"),
+            positive=(
+                "kappa_y",
+                "kappa_d",
+                "kappa_rate",
+                "death_s",
+                "merge_s",
+                "birth_velocity_std",
+            ),
             finite=(
                 "birth_threshold",
                 "activity_threshold",
                 "birth_min_separation_deg",
                 "merge_deg",
+                "birth_floor",
             ),
             counts=("n_iter", "birth_frames", "birth_candidates", "activity_frames"),
         )
+        if isinstance(self.velocity_std, bool) or not (
+            isinstance(self.velocity_std, int | float)
+            and np.isfinite(self.velocity_std)
+            and self.velocity_std >= 0
+        ):
+            raise ValueError(
+                f"VonMisesConfig.velocity_std must be a finite number >= 0, "
+                f"got {self.velocity_std!r}"
+            )
+        d = self.silent_velocity_decay
+        if isinstance(d, bool) or not (isinstance(d, int | float) and 0 <= d <= 1):
+            raise ValueError(f"VonMisesConfig.silent_velocity_decay must be in [0, 1], got {d!r}")
         for name in ("kappa_y_range", "kappa_d_range"):
             v = tuple(getattr(self, name))
             if len(v) != 2 or not (0 < v[0] <= v[1] < np.inf):
@@ -248,6 +281,9 @@ class VonMisesDOATracker(DOATracker):
         self.ids = np.zeros(0, dtype=np.int64)
         self.mu = np.zeros(0)
         self.kappa = np.zeros(0)
+        self.nu = np.zeros(0)  # angular velocities ν_tn, rad/s
+        self.cov_sv = np.zeros(0)  # Cov(s_tn, ν_tn)
+        self.var_v = np.zeros(0)  # Var(ν_tn)
         self.kappa_y = float(cfg.kappa_y)
         self.kappa_d = float(cfg.kappa_d)
         self.activity = SpeakerActivity(cfg.activity_frames, cfg.activity_threshold)
@@ -267,8 +303,20 @@ class VonMisesDOATracker(DOATracker):
         and the weighted masses :math:`\\sum_m\\alpha_{tmn}\\omega_{tm}` ``(N,)``."""
         cfg: VonMisesConfig = self.config
         m, n = y.shape[0], self.n_tracks
-        mu_prev = self.mu
-        a_prev = bessel_ratio(self.kappa)
+        dt = self.frame_period_s
+        cv = cfg.velocity_std > 0
+        if cv:
+            # constant-velocity prediction: s̃ = μ + ν Δt with the spread of ν folded into the
+            # concentration before the dynamics noise (eqs. 5.55–5.56 when ν ≡ 0)
+            var_s = 1.0 / np.maximum(self.kappa, 1e-12)
+            var_s = var_s + 2 * dt * self.cov_sv + dt * dt * self.var_v  # [1 Δt] P [1 Δt]ᵀ
+            cov_sv = self.cov_sv + dt * self.var_v  # Cov(s̃, ν̃)
+            var_v = self.var_v + cfg.velocity_std**2  # Var(ν̃)
+            mu_prev = np.mod(self.mu + self.nu * dt + np.pi, 2 * np.pi) - np.pi
+            a_prev = bessel_ratio(1.0 / var_s)
+        else:
+            mu_prev = self.mu
+            a_prev = bessel_ratio(self.kappa)
         a_d = float(bessel_ratio(self.kappa_d))
         k_tilde = inv_bessel_ratio(a_prev * a_d)  # eq. 5.56
         c_prev, s_prev = k_tilde * np.cos(mu_prev), k_tilde * np.sin(mu_prev)
@@ -317,6 +365,18 @@ class VonMisesDOATracker(DOATracker):
                     )
                 )
         self.mu, self.kappa = mu, kappa
+        if cv and n:
+            # ν given the updated direction: Gaussian conditioning on s (the observations inform
+            # s only), ν = ν̃ + Cov(s̃, ν̃)/Var(s̃) (μ - s̃)
+            var_pred = 1.0 / np.maximum(k_tilde, 1e-12)
+            gain = cov_sv / var_pred
+            shrink = np.minimum(1.0, (1.0 / np.maximum(kappa, 1e-12)) / var_pred)
+            resid = np.mod(mu - mu_prev + np.pi, 2 * np.pi) - np.pi
+            self.nu = self.nu + gain * resid
+            self.cov_sv = cov_sv * shrink
+            self.var_v = np.minimum(
+                var_v - gain * cov_sv * (1.0 - shrink), cfg.birth_velocity_std**2
+            )
         return alpha, omega.dot(alpha[:, 1:])
 
     def _step(self, azimuth_rad: np.ndarray, weight: np.ndarray) -> TrackFrame:
@@ -332,6 +392,7 @@ class VonMisesDOATracker(DOATracker):
         # --- voice activity (eq. 5.62), death and duplicates -----------------------------------
         score, active = self.activity.update(mass)
         if n:
+            self.nu = np.where(active, self.nu, cfg.silent_velocity_decay * self.nu)
             keep = self.activity.silent_frames < self._death_frames
             cos = np.cos(self.mu[:, None] - self.mu[None, :])
             older = np.tril(cos > self._cos_merge, k=-1)  # [i, j]: j < i is close to i
@@ -339,11 +400,13 @@ class VonMisesDOATracker(DOATracker):
             keep &= self.shadowed < self._merge_frames
             if not keep.all():
                 self.ids, self.mu, self.kappa = self.ids[keep], self.mu[keep], self.kappa[keep]
+                self.nu, self.cov_sv = self.nu[keep], self.cov_sv[keep]
+                self.var_v = self.var_v[keep]
                 self.activity.remove(keep)
                 self.shadowed = self.shadowed[keep]
                 score, active = score[keep], active[keep]
         # --- birth (§5.6.4) -------------------------------------------------------------------
-        cand = np.flatnonzero(unassigned & (weight > 0))
+        cand = np.flatnonzero(unassigned & (weight > 0) & (weight >= cfg.birth_floor))
         if cand.size > cfg.birth_candidates:
             cand = cand[np.argsort(-weight[cand], kind="stable")[: cfg.birth_candidates]]
         self._pool.append((y[cand], weight[cand]))
@@ -373,6 +436,9 @@ class VonMisesDOATracker(DOATracker):
         self.ids = np.concatenate([self.ids, self._new_ids(1)])
         self.mu = np.concatenate([self.mu, [mu[best]]])
         self.kappa = np.concatenate([self.kappa, [kappa[best]]])
+        self.nu = np.concatenate([self.nu, [0.0]])
+        self.cov_sv = np.concatenate([self.cov_sv, [0.0]])
+        self.var_v = np.concatenate([self.var_v, [cfg.birth_velocity_std**2]])
         recent = float(om[best, -cfg.activity_frames :].sum())
         self.activity.add(1, recent / cfg.activity_frames)
         self.shadowed = np.concatenate([self.shadowed, [0]])

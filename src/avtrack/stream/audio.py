@@ -63,16 +63,16 @@ class DOAStream:
         DOA tracker (``"gauss"`` or ``"vonmises"``; default ``"vonmises"``).
     step : int
         Localizer frames per tracker frame (default 4: 32 ms).
-    observations : {"all", "above-median", "peaks"}, optional
-        Every candidate direction, the same above each frame's median weight, or only the heat
-        map's peaks (default: the tracker's own,
-        :data:`~avtrack.doa.base.DEFAULT_OBSERVATIONS`).
+    observations : {"all", "above-median", "peaks", "peaks-over-uniform"}, optional
+        Every candidate direction, the same above each frame's median weight, the heat map's
+        peaks at or above ``floor``, or those at or above 1.44 times the uniform weight
+        (default: the tracker's own, :data:`~avtrack.doa.base.DEFAULT_OBSERVATIONS`).
     grid : DirectionGrid, optional
         Candidate directions (default: 72 azimuths every 5 degrees).
     method_config, tracker_config : optional
         The localizer's and the tracker's ``Config`` dataclasses (default parameters).
     floor : float
-        With peak observations, drop peaks below this weight (default
+        With ``"peaks"`` observations, drop peaks below this weight (default
         :data:`~avtrack.doa.base.PEAK_FLOOR`).
 
     Examples
