@@ -122,6 +122,9 @@ class LPFSMCPHD(SMCPHDFilter):
         self._assoc: dict[int, int] = {}  # label -> its measurement on the current frame
         self._seen: dict[int, np.ndarray] = {}  # confirmed label -> position when last >= xi
         self._lost: dict[int, tuple[np.ndarray, int]] = {}  # dropped label -> (position, frame)
+        self._occluded: set[int] = set()  # labels coasting through an ambiguous frame
+        self._held: dict[int, int] = {}  # such label -> consecutive frames coasted
+        self._withheld: set[int] = set()  # the measurements they leave to nobody
 
     def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
         """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
@@ -161,7 +164,59 @@ class LPFSMCPHD(SMCPHDFilter):
             return {}
         cost = np.where(ok, -score, 0.0)
         rows, cols = linear_sum_assignment(cost)
-        return {int(uniq[i]): int(r) for i, r in zip(rows, cols, strict=True) if ok[i, r]}
+        assoc = {int(uniq[i]): int(r) for i, r in zip(rows, cols, strict=True) if ok[i, r]}
+        if cfg.ambiguity_ratio > 1 and cfg.occlusion_frames > 0:
+            for tid in self._ambiguous(uniq, cost, ok, frame, assoc):
+                assoc.pop(tid, None)
+        return assoc
+
+    def _ambiguous(
+        self, uniq: np.ndarray, cost: np.ndarray, ok: np.ndarray, frame: AVFrame,
+        assoc: dict[int, int],
+    ) -> set[int]:  # fmt: skip
+        """Confirmed labels whose share of the best assignment is ambiguous (occlusion rule).
+
+        For each face measurement ``r`` that the best assignment gives to a confirmed label
+        ``l``, the best assignment with the pair ``(l, r)`` forbidden is found; when it scores
+        within ``log(ambiguity_ratio)`` of the best, the two assignments are nearly equally
+        likely and the labels whose measurement differs between them — all confirmed, e.g. two
+        speakers crossing with one face detected, or with two faces at the crossing point —
+        take no measurement this frame: each is treated as undetectable (``p_D = 0``, an
+        occluded speaker is still present) and coasts on its transition, so it keeps going at
+        its own velocity instead of being pulled onto the other's face. A label coasts so for
+        at most ``occlusion_frames`` frames in a row; then the best assignment applies. The
+        withheld measurements give no births.
+
+        Returns
+        -------
+        set of int
+            The labels that coast; also kept in ``self._occluded``.
+        """
+        cfg = self.config
+        index = {int(t): i for i, t in enumerate(uniq.tolist())}
+        best = -sum(cost[index[t], r] for t, r in assoc.items())
+        out: set[int] = set()
+        for tid, r in assoc.items():
+            if tid in out or tid not in self._confirmed or frame.pairs[r, 1] == 0:
+                continue
+            forbid = cost.copy()
+            forbid[index[tid], r] = 1e12  # the pair (l, r) forbidden
+            rows, cols = linear_sum_assignment(forbid)
+            alt = {int(uniq[i]): int(c) for i, c in zip(rows, cols, strict=True)
+                   if ok[i, c] and not (i == index[tid] and c == r)}
+            alt_score = -sum(cost[index[t], c] for t, c in alt.items())
+            if best - alt_score >= np.log(cfg.ambiguity_ratio):
+                continue
+            changed = {t for t in set(assoc) | set(alt) if assoc.get(t) != alt.get(t)}
+            if len(changed) < 2 or not all(t in self._confirmed for t in changed):
+                continue  # not two speakers competing for the same faces
+            if any(self._held.get(t, 0) >= cfg.occlusion_frames for t in changed):
+                continue  # held long enough: the best assignment decides
+            out |= changed
+        self._held = {t: self._held.get(t, 0) + 1 for t in out}
+        self._occluded = out
+        self._withheld = {assoc[t] for t in out if t in assoc}
+        return out
 
     def _birth(self, frame: AVFrame, pred: Prediction) -> Births:
         """Births of :meth:`SMCPHDFilter._birth` for the measurements that no label takes
@@ -172,9 +227,13 @@ class LPFSMCPHD(SMCPHDFilter):
         cfg = self.config
         if cfg.flow_weights != "proposal":
             return super()._birth(frame, pred)
+        self._occluded, self._withheld = set(), set()
         self._assoc = self._associate(frame, pred)
+        if not self._occluded:
+            self._held = {}
         taken = np.zeros(frame.n_pairs, dtype=bool)
         taken[list(self._assoc.values())] = True
+        taken[list(self._withheld)] = True  # an ambiguous face: a speaker, not a new one
         pred.explained = taken
         births = super()._birth(frame, pred)
         self._lost = {t: v for t, v in self._lost.items()
@@ -187,7 +246,7 @@ class LPFSMCPHD(SMCPHDFilter):
         uniq, group = np.unique(pred.tids, return_inverse=True)
         _, mean, _ = weighted_moments(pred.states, pred.weights + 1e-300, group, len(uniq))
         cand = [(int(t), mean[j, :2], 0) for j, t in enumerate(uniq.tolist())
-                if t in self._confirmed and t not in self._assoc]
+                if t in self._confirmed and t not in self._assoc and t not in self._occluded]
         # a dropped label stays a candidate until it is confirmed again: a relinked birth that
         # is never confirmed (a lone detection) must not use the label up
         alive = set(uniq.tolist())
@@ -339,6 +398,9 @@ class LPFSMCPHD(SMCPHDFilter):
         num = pd_i * np.exp(log_h) * rho[det] * pred.weights[det]
         G = np.bincount(r, num, minlength=n_r)  # eq. 23 (over the particles of measurement r)
         weights = miss * pred.weights * rho  # eq. 22, l_ring = l_breve = 0
+        if self._occluded:  # p_D = 0 for an occluded label: eq. 22's miss factor is 1
+            occ = np.isin(pred.tids, list(self._occluded))
+            weights[occ] = pred.weights[occ] * rho[occ]
         weights[det] = num / (kap[r] + G[r])  # eq. 22, labelled particles
         on_measurement = weights.copy()  # eq. 25 sums the labelled term only
         on_measurement[~det] = 0.0
@@ -381,6 +443,12 @@ class LPFSMCPHD(SMCPHDFilter):
                 self._confirmed[tid] = self._frame
                 self._lost.pop(tid, None)  # relinked and confirmed
                 self._seen[tid] = mean[j, :2].copy()
+                report.append(j)
+            elif tid in self._occluded and tid in self._confirmed and (
+                total[j] >= cfg.extraction_threshold
+            ):  # an occluded speaker is still present: reported at its predicted mean
+                self._confirmed[tid] = self._frame
+                mass[j] = total[j]
                 report.append(j)
             elif tid in self._confirmed and (
                 self._frame - self._confirmed[tid] <= cfg.coast_frames and total[j] > 0
