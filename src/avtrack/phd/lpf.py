@@ -10,6 +10,12 @@ the default ``flow_weights="proposal"``:
   eq. 11's factor of the measurement, over the gated pairs — for a DOA line alone only where
   the label explains it better than clutter — ``G_lr`` = eq. 12 over the label's gated
   predicted particles, :meth:`LPFSMCPHD._associate`, ``PHDConfig.association``);
+- a face that two confirmed labels explain almost equally well (the best assignment less
+  than ``ambiguity_ratio`` times more likely than the best without that pair: two speakers
+  crossing with one face detected) goes to neither; those labels are undetectable on that
+  frame (``p_D = 0`` in eq. 22, the occluded speaker is still present) and coast on their
+  own transitions, at their own velocities, for up to ``occlusion_frames`` frames in a row
+  (:meth:`LPFSMCPHD._ambiguous`; not in the seed, see the README's departures);
 - births (eq. 13) come from visual measurements that no label takes, join the PHD after the
   frame's update (:mod:`~avtrack.phd.smc_phd`), and take the label of a confirmed label
   without a measurement, or of a recently dropped one, found near them (the older label is
@@ -125,6 +131,7 @@ class LPFSMCPHD(SMCPHDFilter):
         self._occluded: set[int] = set()  # labels coasting through an ambiguous frame
         self._held: dict[int, int] = {}  # such label -> consecutive frames coasted
         self._withheld: set[int] = set()  # the measurements they leave to nobody
+        self._faced: set[int] = set()  # labels that took a face on the previous frame
 
     def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
         """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
@@ -165,27 +172,52 @@ class LPFSMCPHD(SMCPHDFilter):
         cost = np.where(ok, -score, 0.0)
         rows, cols = linear_sum_assignment(cost)
         assoc = {int(uniq[i]): int(r) for i, r in zip(rows, cols, strict=True) if ok[i, r]}
-        if cfg.ambiguity_ratio > 1 and cfg.occlusion_frames > 0:
-            for tid in self._ambiguous(uniq, cost, ok, frame, assoc):
+        if cfg.ambiguity_ratio > 1 and cfg.occlusion_frames > 0 and len(frame.visual):
+            # the faces' own scores: eq. 12 with the visual part of the likelihood only
+            limit = -0.5 * cfg.gate**2
+            n_u = len(frame.visual)
+            face_pairs = np.flatnonzero(frame.pairs[:, 1] > 0)
+            col = frame.pairs[face_pairs, 1] - 1
+            first = np.full(n_u, -1)
+            first[col[::-1]] = face_pairs[::-1]  # one pair per face for its kernel
+            lv = pred.log_visual[:, first]
+            lik_v = np.exp(np.where(lv >= limit, lv, -np.inf) + log_nv) * cfg.p_detect_visual
+            Gv = np.zeros((len(uniq), n_u))
+            np.add.at(Gv, group, pred.weights[:, None] * lik_v)
+            k_v = cfg.clutter_visual / float(np.prod(cfg.image_size))
+            for tid in self._ambiguous(uniq, Gv, k_v, frame, assoc):
                 assoc.pop(tid, None)
         return assoc
 
     def _ambiguous(
-        self, uniq: np.ndarray, cost: np.ndarray, ok: np.ndarray, frame: AVFrame,
+        self, uniq: np.ndarray, Gv: np.ndarray, kappa_v: float, frame: AVFrame,
         assoc: dict[int, int],
     ) -> set[int]:  # fmt: skip
-        """Confirmed labels whose share of the best assignment is ambiguous (occlusion rule).
+        """Confirmed labels whose faces are ambiguous (occlusion rule, not in the seed).
 
-        For each face measurement ``r`` that the best assignment gives to a confirmed label
-        ``l``, the best assignment with the pair ``(l, r)`` forbidden is found; when it scores
-        within ``log(ambiguity_ratio)`` of the best, the two assignments are nearly equally
-        likely and the labels whose measurement differs between them — all confirmed, e.g. two
-        speakers crossing with one face detected, or with two faces at the crossing point —
-        take no measurement this frame: each is treated as undetectable (``p_D = 0``, an
-        occluded speaker is still present) and coasts on its transition, so it keeps going at
-        its own velocity instead of being pulled onto the other's face. A label coasts so for
-        at most ``occlusion_frames`` frames in a row; then the best assignment applies. The
-        withheld measurements give no births.
+        The faces are assigned to the labels alone (at most one each), maximising
+        ``sum log((kappa_breve + Gv_lu) / kappa_breve)`` with ``Gv_lu`` eq. 12 over the
+        label's gated particles with the visual likelihood only. For each face ``u`` that
+        this assignment gives to a confirmed label ``l``, the best assignment with ``(l, u)``
+        forbidden is found; when it scores within ``log(ambiguity_ratio)`` of the best, and
+        the labels whose face differs between the two are all confirmed (two speakers
+        crossing with one face detected, or two faces at the crossing point), those labels
+        take no measurement on the frame: each is undetectable (``p_D = 0``: an occluded
+        speaker is still present) and coasts on its transition at its own velocity instead of
+        being pulled onto the other's face. A label coasts so for at most
+        ``occlusion_frames`` frames in a row; then the association of :meth:`_associate`
+        applies. The pairs holding an ambiguous face give no births.
+
+        Parameters
+        ----------
+        uniq : ndarray (L,) int
+            The labels, rows of ``Gv``.
+        Gv : ndarray (L, U)
+            ``Gv_lu`` for each label and face of the frame.
+        kappa_v : float
+            Visual clutter intensity (per pixel^2).
+        assoc : dict
+            The frame's association (label -> row of ``frame.pairs``).
 
         Returns
         -------
@@ -193,29 +225,39 @@ class LPFSMCPHD(SMCPHDFilter):
             The labels that coast; also kept in ``self._occluded``.
         """
         cfg = self.config
+        ok = Gv > 0
+        cost = np.where(ok, -np.log1p(Gv / kappa_v), 0.0)
+        rows, cols = linear_sum_assignment(cost)
+        best_pairs = {int(uniq[i]): int(u) for i, u in zip(rows, cols, strict=True) if ok[i, u]}
         index = {int(t): i for i, t in enumerate(uniq.tolist())}
-        best = -sum(cost[index[t], r] for t, r in assoc.items())
+        best = -sum(cost[index[t], u] for t, u in best_pairs.items())
         out: set[int] = set()
-        for tid, r in assoc.items():
-            if tid in out or tid not in self._confirmed or frame.pairs[r, 1] == 0:
+        faces: set[int] = set()
+        for tid, u in best_pairs.items():
+            if tid in out or tid not in self._confirmed:
                 continue
             forbid = cost.copy()
-            forbid[index[tid], r] = 1e12  # the pair (l, r) forbidden
+            forbid[index[tid], u] = 1e12  # the pair (l, u) forbidden
             rows, cols = linear_sum_assignment(forbid)
             alt = {int(uniq[i]): int(c) for i, c in zip(rows, cols, strict=True)
-                   if ok[i, c] and not (i == index[tid] and c == r)}
+                   if ok[i, c] and not (i == index[tid] and c == u)}
             alt_score = -sum(cost[index[t], c] for t, c in alt.items())
             if best - alt_score >= np.log(cfg.ambiguity_ratio):
                 continue
-            changed = {t for t in set(assoc) | set(alt) if assoc.get(t) != alt.get(t)}
+            changed = {t for t in set(best_pairs) | set(alt) if best_pairs.get(t) != alt.get(t)}
             if len(changed) < 2 or not all(t in self._confirmed for t in changed):
                 continue  # not two speakers competing for the same faces
+            if not all(t in self._faced or t in self._held for t in changed):
+                continue  # an occlusion starts between speakers both seen the frame before
             if any(self._held.get(t, 0) >= cfg.occlusion_frames for t in changed):
-                continue  # held long enough: the best assignment decides
+                continue  # held long enough: the association decides
             out |= changed
+            faces |= {best_pairs[t] for t in changed if t in best_pairs}
         self._held = {t: self._held.get(t, 0) + 1 for t in out}
         self._occluded = out
-        self._withheld = {assoc[t] for t in out if t in assoc}
+        self._withheld = {int(r) for r in np.flatnonzero(np.isin(frame.pairs[:, 1] - 1,
+                                                                 list(faces)))}
+        self._withheld |= {assoc[t] for t in out if t in assoc}
         return out
 
     def _birth(self, frame: AVFrame, pred: Prediction) -> Births:
@@ -231,6 +273,7 @@ class LPFSMCPHD(SMCPHDFilter):
         self._assoc = self._associate(frame, pred)
         if not self._occluded:
             self._held = {}
+        self._faced = {t for t, r in self._assoc.items() if frame.pairs[r, 1] > 0}
         taken = np.zeros(frame.n_pairs, dtype=bool)
         taken[list(self._assoc.values())] = True
         taken[list(self._withheld)] = True  # an ambiguous face: a speaker, not a new one
