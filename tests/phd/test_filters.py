@@ -238,3 +238,4 @@ def test_lpf_occlusion_rule_is_bounded():
         f.step(make_frame(np.array([[160.0, 100.0]]), np.zeros(0), np.zeros((0, 3)), 10.0))
         held.append(len(f._occluded))
     assert held[:3] == [2, 2, 2] and held[3] == 0
+

@@ -220,7 +220,7 @@ class PHDConfig:
     flow_prior: str = "transition"
     marginal_weights: bool = True
     coast_frames: int = 0
-    ambiguity_ratio: float = 20.0
+    ambiguity_ratio: float = 6.0
     occlusion_frames: int = 25
     prune_weight: float = 1e-3
     relabel_distance: float = 50.0

@@ -131,7 +131,6 @@ class LPFSMCPHD(SMCPHDFilter):
         self._occluded: set[int] = set()  # labels coasting through an ambiguous frame
         self._held: dict[int, int] = {}  # such label -> consecutive frames coasted
         self._withheld: set[int] = set()  # the measurements they leave to nobody
-        self._faced: set[int] = set()  # labels that took a face on the previous frame
 
     def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
         """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
@@ -247,8 +246,6 @@ class LPFSMCPHD(SMCPHDFilter):
             changed = {t for t in set(best_pairs) | set(alt) if best_pairs.get(t) != alt.get(t)}
             if len(changed) < 2 or not all(t in self._confirmed for t in changed):
                 continue  # not two speakers competing for the same faces
-            if not all(t in self._faced or t in self._held for t in changed):
-                continue  # an occlusion starts between speakers both seen the frame before
             if any(self._held.get(t, 0) >= cfg.occlusion_frames for t in changed):
                 continue  # held long enough: the association decides
             out |= changed
@@ -273,7 +270,6 @@ class LPFSMCPHD(SMCPHDFilter):
         self._assoc = self._associate(frame, pred)
         if not self._occluded:
             self._held = {}
-        self._faced = {t for t, r in self._assoc.items() if frame.pairs[r, 1] > 0}
         taken = np.zeros(frame.n_pairs, dtype=bool)
         taken[list(self._assoc.values())] = True
         taken[list(self._withheld)] = True  # an ambiguous face: a speaker, not a new one
