@@ -180,7 +180,9 @@ class LPFSMCPHD(SMCPHDFilter):
             first = np.full(n_u, -1)
             first[col[::-1]] = face_pairs[::-1]  # one pair per face for its kernel
             lv = pred.log_visual[:, first]
-            lik_v = np.exp(np.where(lv >= limit, lv, -np.inf) + log_nv) * cfg.p_detect_visual
+            paired = (first >= 0)[None, :]
+            lik_v = np.exp(np.where(paired & (lv >= limit), lv, -np.inf) + log_nv
+                           ) * cfg.p_detect_visual
             Gv = np.zeros((len(uniq), n_u))
             np.add.at(Gv, group, pred.weights[:, None] * lik_v)
             k_v = cfg.clutter_visual / float(np.prod(cfg.image_size))
