@@ -115,6 +115,8 @@ def test_ids():
         ("sigma_audio", -1.0, "finite number > 0"),
         ("diffusion", np.nan, "finite number >= 0"),
         ("extraction_threshold", 1.0, r"in \(0, 1\)"),
+        ("ambiguity_ratio", 0.5, "ambiguity_ratio must be a finite number >= 1"),
+        ("occlusion_frames", -1, "integer >= 0"),
         ("flow_weights", "exact", "flow_weights must be one of"),
         ("image_size", (0, 5), "image_size"),
     ],
@@ -156,3 +158,84 @@ def test_lpf_on_av163_sequence_45(shared_data):
     res = LPFSMCPHD(seed=0).run(frames)
     o = ospa_sequence(res.positions(), av163_truth(seq), 50.0)[:, 0].mean()
     assert o < 16.0  # px; 12.9 measured (benchmarks/bench_phd.py)
+
+
+def crossing_scene(
+    seed: int, n_frames: int = 70
+) -> tuple[list[AVFrame], list[np.ndarray]]:
+    """A walks right at 3 px per frame through B, who walks left at 1 px per frame; while A is
+    between 5 px behind and 25 px past B the detector returns one face, midway between their
+    heads; only A speaks (one DOA line through A)."""
+    from tests.phd.conftest import line_through
+
+    rng = np.random.default_rng(seed)
+    frames, truth = [], []
+    for t in range(n_frames):
+        gt = np.array([[90 + 3.0 * t, 100.0], [220 - 1.0 * t, 104.0]])
+        merged = -5 < gt[0, 0] - gt[1, 0] < 25
+        vis = (gt.mean(axis=0)[None] if merged else gt) + rng.normal(
+            scale=2.0, size=(1 if merged else 2, 2))
+        lines = line_through(gt[:1] + rng.normal(scale=1.0, size=(1, 2)))
+        frames.append(make_frame(vis, np.zeros(1), lines, 10.0))
+        truth.append(gt)
+    return frames, truth
+
+
+def _label_of(estimate: PHDEstimate, point: np.ndarray) -> int | None:
+    if len(estimate.ids) == 0:
+        return None
+    d = np.linalg.norm(estimate.positions - point, axis=1)
+    return int(estimate.ids[np.argmin(d)]) if d.min() < 10 else None
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_lpf_labels_persist_through_a_crossing_with_one_face(seed):
+    frames, truth = crossing_scene(seed)
+    res = LPFSMCPHD(seed=seed).run(frames)
+    before = [_label_of(res.estimates[10], y) for y in truth[10]]
+    after = [_label_of(res.estimates[65], y) for y in truth[65]]
+    assert None not in before and before[0] != before[1]
+    assert after == before  # each keeps its label (ambiguity_ratio=1: swaps on 5 of 10)
+
+
+def test_lpf_ambiguous_face_goes_to_neither_label():
+    # two confirmed speakers approaching each other, then one face midway between them: the
+    # assignment is ambiguous, so both coast on their own velocities (p_D = 0), both stay
+    # reported, and the face gives no birth
+    f = LPFSMCPHD(seed=0)
+    for t in range(12):
+        a, b = np.array([120 + 3.0 * t, 100.0]), np.array([200 - 3.0 * t, 100.0])
+        e = f.step(make_frame(np.array([a, b]), np.zeros(0), np.zeros((0, 3)), 10.0))
+    assert len(e.ids) == 2
+    order = np.argsort(e.positions[:, 0])
+    ids, x_before = e.ids[order], e.positions[order, 0]
+    labels_before = set(np.unique(f.tids).tolist())
+    e = f.step(make_frame(np.array([[160.0, 100.0]]), np.zeros(0), np.zeros((0, 3)), 10.0))
+    assert f._occluded == set(ids.tolist())
+    assert set(e.ids.tolist()) == set(ids.tolist())  # both still reported
+    after = {int(i): p[0] for i, p in zip(e.ids, e.positions, strict=True)}
+    assert after[int(ids[0])] - x_before[0] == pytest.approx(3.0, abs=1.5)  # own velocity
+    assert after[int(ids[1])] - x_before[1] == pytest.approx(-3.0, abs=1.5)
+    assert set(np.unique(f.tids).tolist()) == labels_before  # no birth from the face
+    # without the rule (ambiguity_ratio = 1) one label takes the face and the other is missed
+    g = LPFSMCPHD(PHDConfig(ambiguity_ratio=1.0), seed=0)
+    for t in range(12):
+        a, b = np.array([120 + 3.0 * t, 100.0]), np.array([200 - 3.0 * t, 100.0])
+        g.step(make_frame(np.array([a, b]), np.zeros(0), np.zeros((0, 3)), 10.0))
+    e = g.step(make_frame(np.array([[160.0, 100.0]]), np.zeros(0), np.zeros((0, 3)), 10.0))
+    assert len(e.ids) == 1
+
+
+def test_lpf_occlusion_rule_is_bounded():
+    # a face that stays ambiguous is given to the best label after occlusion_frames frames
+    cfg = PHDConfig(occlusion_frames=3)
+    f = LPFSMCPHD(cfg, seed=0)
+    for _ in range(12):
+        f.step(make_frame(np.array([[150.0, 100.0], [170.0, 100.0]]), np.zeros(0),
+                          np.zeros((0, 3)), 10.0))
+    held = []
+    for _ in range(5):
+        f.step(make_frame(np.array([[160.0, 100.0]]), np.zeros(0), np.zeros((0, 3)), 10.0))
+        held.append(len(f._occluded))
+    assert held[:3] == [2, 2, 2] and held[3] == 0
+

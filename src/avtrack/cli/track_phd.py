@@ -60,6 +60,8 @@ The --config YAML holds PHDConfig fields, e.g.:
   marginal_weights: true
   resample_rule: population
   association: face
+  ambiguity_ratio: 6
+  occlusion_frames: 25
   coast_frames: 0
 """
 

@@ -173,6 +173,20 @@ class PHDConfig:
     relink_gate : float
         ``"likelihood"``: a label is a candidate within this many standard deviations
         (``reach / 2``) of the birth; 2 (default) is the reach of ``"reach"``.
+    ambiguity_ratio : float
+        LPF, occlusion rule (:meth:`~avtrack.phd.lpf.LPFSMCPHD._ambiguous`): when the best
+        assignment of the frame's faces to the labels (eq. 12 with the visual likelihood) is
+        less than this many times more likely than the best one without one of its
+        (confirmed label, face) pairs, and the two differ only in confirmed labels, those
+        labels take no measurement on the frame (``p_D = 0``: two speakers crossing with one
+        face detected cannot be told apart) and coast on their transitions. 1: never.
+        Default 6 (sequence 45, cameras 1–3, 4 seeds, and sequence 30 from its video, 8
+        seeds, LPF OSPA-T: 1 (no rule) 17.5 / 12.1 / 10.0 and 16.8; 6: 14.8 / 9.6 / 14.0 and
+        16.8; 20: 13.9 / 12.3 / 12.4 and 18.8 — with 20 a speaker who stops abruptly beside
+        another coasts on past them).
+    occlusion_frames : int
+        LPF: a label coasts by the occlusion rule for at most this many frames in a row
+        (0: never).
     prune_weight : float
         A label that is neither reported nor coasting is dropped when its weight falls
         below this (LPF).
@@ -210,6 +224,8 @@ class PHDConfig:
     flow_prior: str = "transition"
     marginal_weights: bool = True
     coast_frames: int = 0
+    ambiguity_ratio: float = 6.0
+    occlusion_frames: int = 25
     prune_weight: float = 1e-3
     relabel_distance: float = 50.0
     relink_frames: int = 250
@@ -227,7 +243,7 @@ class PHDConfig:
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 1:
                 raise ValueError(f"PHDConfig: {name} must be an integer >= 1, got {v!r}")
-        for name in ("coast_frames", "relink_frames"):
+        for name in ("coast_frames", "relink_frames", "occlusion_frames"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, int | np.integer) or v < 0:
                 raise ValueError(f"PHDConfig: {name} must be an integer >= 0, got {v!r}")
@@ -257,6 +273,11 @@ class PHDConfig:
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"PHDConfig: {name} must be a finite number >= 0, got {v!r}")
+        if not (np.isfinite(self.ambiguity_ratio) and self.ambiguity_ratio >= 1):
+            raise ValueError(
+                f"PHDConfig: ambiguity_ratio must be a finite number >= 1, got "
+                f"{self.ambiguity_ratio!r}"
+            )
         if not 0 < self.extraction_threshold < 1:
             raise ValueError(
                 f"PHDConfig: extraction_threshold must be in (0, 1), got "

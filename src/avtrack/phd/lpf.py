@@ -10,6 +10,12 @@ the default ``flow_weights="proposal"``:
   eq. 11's factor of the measurement, over the gated pairs — for a DOA line alone only where
   the label explains it better than clutter — ``G_lr`` = eq. 12 over the label's gated
   predicted particles, :meth:`LPFSMCPHD._associate`, ``PHDConfig.association``);
+- a face that two confirmed labels explain almost equally well (the best assignment less
+  than ``ambiguity_ratio`` times more likely than the best without that pair: two speakers
+  crossing with one face detected) goes to neither; those labels are undetectable on that
+  frame (``p_D = 0`` in eq. 22, the occluded speaker is still present) and coast on their
+  own transitions, at their own velocities, for up to ``occlusion_frames`` frames in a row
+  (:meth:`LPFSMCPHD._ambiguous`; not in the seed, see the README's departures);
 - births (eq. 13) come from visual measurements that no label takes, join the PHD after the
   frame's update (:mod:`~avtrack.phd.smc_phd`), and take the label of a confirmed label
   without a measurement, or of a recently dropped one, found near them (the older label is
@@ -122,6 +128,9 @@ class LPFSMCPHD(SMCPHDFilter):
         self._assoc: dict[int, int] = {}  # label -> its measurement on the current frame
         self._seen: dict[int, np.ndarray] = {}  # confirmed label -> position when last >= xi
         self._lost: dict[int, tuple[np.ndarray, int]] = {}  # dropped label -> (position, frame)
+        self._occluded: set[int] = set()  # labels coasting through an ambiguous frame
+        self._held: dict[int, int] = {}  # such label -> consecutive frames coasted
+        self._withheld: set[int] = set()  # the measurements they leave to nobody
 
     def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
         """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
@@ -161,7 +170,94 @@ class LPFSMCPHD(SMCPHDFilter):
             return {}
         cost = np.where(ok, -score, 0.0)
         rows, cols = linear_sum_assignment(cost)
-        return {int(uniq[i]): int(r) for i, r in zip(rows, cols, strict=True) if ok[i, r]}
+        assoc = {int(uniq[i]): int(r) for i, r in zip(rows, cols, strict=True) if ok[i, r]}
+        if cfg.ambiguity_ratio > 1 and cfg.occlusion_frames > 0 and len(frame.visual):
+            # the faces' own scores: eq. 12 with the visual part of the likelihood only
+            limit = -0.5 * cfg.gate**2
+            n_u = len(frame.visual)
+            face_pairs = np.flatnonzero(frame.pairs[:, 1] > 0)
+            col = frame.pairs[face_pairs, 1] - 1
+            first = np.full(n_u, -1)
+            first[col[::-1]] = face_pairs[::-1]  # one pair per face for its kernel
+            lv = pred.log_visual[:, first]
+            paired = (first >= 0)[None, :]
+            lik_v = np.exp(np.where(paired & (lv >= limit), lv, -np.inf) + log_nv
+                           ) * cfg.p_detect_visual
+            Gv = np.zeros((len(uniq), n_u))
+            np.add.at(Gv, group, pred.weights[:, None] * lik_v)
+            k_v = cfg.clutter_visual / float(np.prod(cfg.image_size))
+            for tid in self._ambiguous(uniq, Gv, k_v, frame, assoc):
+                assoc.pop(tid, None)
+        return assoc
+
+    def _ambiguous(
+        self, uniq: np.ndarray, Gv: np.ndarray, kappa_v: float, frame: AVFrame,
+        assoc: dict[int, int],
+    ) -> set[int]:  # fmt: skip
+        """Confirmed labels whose faces are ambiguous (occlusion rule, not in the seed).
+
+        The faces are assigned to the labels alone (at most one each), maximising
+        ``sum log((kappa_breve + Gv_lu) / kappa_breve)`` with ``Gv_lu`` eq. 12 over the
+        label's gated particles with the visual likelihood only. For each face ``u`` that
+        this assignment gives to a confirmed label ``l``, the best assignment with ``(l, u)``
+        forbidden is found; when it scores within ``log(ambiguity_ratio)`` of the best, and
+        the labels whose face differs between the two are all confirmed (two speakers
+        crossing with one face detected, or two faces at the crossing point), those labels
+        take no measurement on the frame: each is undetectable (``p_D = 0``: an occluded
+        speaker is still present) and coasts on its transition at its own velocity instead of
+        being pulled onto the other's face. A label coasts so for at most
+        ``occlusion_frames`` frames in a row; then the association of :meth:`_associate`
+        applies. The pairs holding an ambiguous face give no births.
+
+        Parameters
+        ----------
+        uniq : ndarray (L,) int
+            The labels, rows of ``Gv``.
+        Gv : ndarray (L, U)
+            ``Gv_lu`` for each label and face of the frame.
+        kappa_v : float
+            Visual clutter intensity (per pixel^2).
+        assoc : dict
+            The frame's association (label -> row of ``frame.pairs``).
+
+        Returns
+        -------
+        set of int
+            The labels that coast; also kept in ``self._occluded``.
+        """
+        cfg = self.config
+        ok = Gv > 0
+        cost = np.where(ok, -np.log1p(Gv / kappa_v), 0.0)
+        rows, cols = linear_sum_assignment(cost)
+        best_pairs = {int(uniq[i]): int(u) for i, u in zip(rows, cols, strict=True) if ok[i, u]}
+        index = {int(t): i for i, t in enumerate(uniq.tolist())}
+        best = -sum(cost[index[t], u] for t, u in best_pairs.items())
+        out: set[int] = set()
+        faces: set[int] = set()
+        for tid, u in best_pairs.items():
+            if tid in out or tid not in self._confirmed:
+                continue
+            forbid = cost.copy()
+            forbid[index[tid], u] = 1e12  # the pair (l, u) forbidden
+            rows, cols = linear_sum_assignment(forbid)
+            alt = {int(uniq[i]): int(c) for i, c in zip(rows, cols, strict=True)
+                   if ok[i, c] and not (i == index[tid] and c == u)}
+            alt_score = -sum(cost[index[t], c] for t, c in alt.items())
+            if best - alt_score >= np.log(cfg.ambiguity_ratio):
+                continue
+            changed = {t for t in set(best_pairs) | set(alt) if best_pairs.get(t) != alt.get(t)}
+            if len(changed) < 2 or not all(t in self._confirmed for t in changed):
+                continue  # not two speakers competing for the same faces
+            if any(self._held.get(t, 0) >= cfg.occlusion_frames for t in changed):
+                continue  # held long enough: the association decides
+            out |= changed
+            faces |= {best_pairs[t] for t in changed if t in best_pairs}
+        self._held = {t: self._held.get(t, 0) + 1 for t in out}
+        self._occluded = out
+        self._withheld = {int(r) for r in np.flatnonzero(np.isin(frame.pairs[:, 1] - 1,
+                                                                 list(faces)))}
+        self._withheld |= {assoc[t] for t in out if t in assoc}
+        return out
 
     def _birth(self, frame: AVFrame, pred: Prediction) -> Births:
         """Births of :meth:`SMCPHDFilter._birth` for the measurements that no label takes
@@ -172,9 +268,13 @@ class LPFSMCPHD(SMCPHDFilter):
         cfg = self.config
         if cfg.flow_weights != "proposal":
             return super()._birth(frame, pred)
+        self._occluded, self._withheld = set(), set()
         self._assoc = self._associate(frame, pred)
+        if not self._occluded:
+            self._held = {}
         taken = np.zeros(frame.n_pairs, dtype=bool)
         taken[list(self._assoc.values())] = True
+        taken[list(self._withheld)] = True  # an ambiguous face: a speaker, not a new one
         pred.explained = taken
         births = super()._birth(frame, pred)
         self._lost = {t: v for t, v in self._lost.items()
@@ -187,7 +287,7 @@ class LPFSMCPHD(SMCPHDFilter):
         uniq, group = np.unique(pred.tids, return_inverse=True)
         _, mean, _ = weighted_moments(pred.states, pred.weights + 1e-300, group, len(uniq))
         cand = [(int(t), mean[j, :2], 0) for j, t in enumerate(uniq.tolist())
-                if t in self._confirmed and t not in self._assoc]
+                if t in self._confirmed and t not in self._assoc and t not in self._occluded]
         # a dropped label stays a candidate until it is confirmed again: a relinked birth that
         # is never confirmed (a lone detection) must not use the label up
         alive = set(uniq.tolist())
@@ -339,6 +439,9 @@ class LPFSMCPHD(SMCPHDFilter):
         num = pd_i * np.exp(log_h) * rho[det] * pred.weights[det]
         G = np.bincount(r, num, minlength=n_r)  # eq. 23 (over the particles of measurement r)
         weights = miss * pred.weights * rho  # eq. 22, l_ring = l_breve = 0
+        if self._occluded:  # p_D = 0 for an occluded label: eq. 22's miss factor is 1
+            occ = np.isin(pred.tids, list(self._occluded))
+            weights[occ] = pred.weights[occ] * rho[occ]
         weights[det] = num / (kap[r] + G[r])  # eq. 22, labelled particles
         on_measurement = weights.copy()  # eq. 25 sums the labelled term only
         on_measurement[~det] = 0.0
@@ -381,6 +484,12 @@ class LPFSMCPHD(SMCPHDFilter):
                 self._confirmed[tid] = self._frame
                 self._lost.pop(tid, None)  # relinked and confirmed
                 self._seen[tid] = mean[j, :2].copy()
+                report.append(j)
+            elif tid in self._occluded and tid in self._confirmed and (
+                total[j] >= cfg.extraction_threshold
+            ):  # an occluded speaker is still present: reported at its predicted mean
+                self._confirmed[tid] = self._frame
+                mass[j] = total[j]
                 report.append(j)
             elif tid in self._confirmed and (
                 self._frame - self._confirmed[tid] <= cfg.coast_frames and total[j] > 0
