@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -10,8 +12,15 @@ from scipy.integrate import quad
 from scipy.special import iv
 
 from avtrack.config import build_config
-from avtrack.doa.base import FRAME_PERIOD_S, DOASequence, make_tracker
+from avtrack.doa.base import (
+    FAST_MAP_UNIFORM_PEAK_FLOOR,
+    FRAME_PERIOD_S,
+    DOASequence,
+    heatmap_sequence,
+    make_tracker,
+)
 from avtrack.doa.vonmises import (
+    FAST_MAP_CONFIG,
     VonMisesConfig,
     VonMisesDOATracker,
     bessel_ratio,
@@ -316,3 +325,23 @@ def test_velocity_removes_the_lag_on_a_moving_source():
             assert np.rad2deg(tracker.nu).mean() == pytest.approx(40.0, abs=8.0)
     assert bias[0.0] > 0.5
     assert abs(bias[0.3]) < 0.3 * bias[0.0]
+
+
+def test_fast_map_settings_lower_the_peak_floor_and_the_birth_floor_only():
+    # dprtf-eg-fast maps have lower, wider peaks: the option observes the peaks over 1.15/D
+    # (not 1.44/D) and lets DOAs down to 0.03 (not 0.05) start a source; nothing else changes
+    assert FAST_MAP_CONFIG == dataclasses.replace(VonMisesConfig(), birth_floor=0.03)
+    w = np.array([[0.1, 0.32, 0.1, 0.28]])  # peaks 0.32 and 0.28; 1.15/4 = 0.2875, 1.44/4 = 0.36
+    az = np.array([-90.0, 0.0, 90.0, 180.0])
+    default = heatmap_sequence(w, az, step=1, observations="peaks-over-uniform")
+    assert default.azimuth_deg[0].size == 0
+    fast = heatmap_sequence(
+        w, az, step=1, observations="peaks-over-uniform", uniform_floor=FAST_MAP_UNIFORM_PEAK_FLOOR
+    )
+    np.testing.assert_allclose(fast.azimuth_deg[0], [0.0])
+    np.testing.assert_allclose(fast.weight[0], [0.32])
+    same = DOASequence.from_weights(w, az, step=1, mode="last", peaks_only=True, floor=1.15 / 4)
+    np.testing.assert_allclose(same.azimuth_deg[0], fast.azimuth_deg[0])
+    with pytest.raises(ValueError, match="uniform_floor"):
+        heatmap_sequence(w, az, observations="peaks-over-uniform", uniform_floor=-1.0)
+    assert isinstance(make_tracker("vonmises", FAST_MAP_CONFIG), VonMisesDOATracker)

@@ -87,6 +87,12 @@ PEAK_FLOOR = 0.05
 #: not observations (1.44 / 72 = 0.02 on the default 5° grid).
 UNIFORM_PEAK_FLOOR = 1.44
 
+#: The same multiple for the lower, wider peaks of ``dprtf-eg-fast`` heat maps (1.15 / 72 ≈
+#: 0.016): pass it as ``heatmap_sequence(..., uniform_floor=FAST_MAP_UNIFORM_PEAK_FLOOR)``
+#: with :data:`avtrack.doa.vonmises.FAST_MAP_CONFIG`. An option, not a default: every command
+#: reads ``dprtf-eg``. See BENCHMARKS.md (issue 23, trackers on ``dprtf-eg-fast`` maps).
+FAST_MAP_UNIFORM_PEAK_FLOOR = 1.15
+
 
 #: Class decorator registering a :class:`DOATracker` subclass under a name.
 register_tracker = TRACKERS.register
@@ -312,13 +318,15 @@ def heatmap_sequence(
     step: int = 4,
     observations: str = "all",
     floor: float = PEAK_FLOOR,
+    uniform_floor: float = UNIFORM_PEAK_FLOOR,
 ) -> DOASequence:
     """Tracker observations from heat maps ``(T, D)`` in one of :data:`OBSERVATION_MODES`.
 
     One tracker frame per ``step`` localizer frames (thesis §5.5.2: 4, i.e. 32 ms) with the
     block's mean weights, or its last frame's for ``"peaks-over-uniform"``; ``"peaks"`` keeps
     the peaks at or above ``floor`` (the other modes ignore it), ``"peaks-over-uniform"`` those
-    at or above :data:`UNIFORM_PEAK_FLOOR` ``/ D``.
+    at or above ``uniform_floor / D`` (default :data:`UNIFORM_PEAK_FLOOR`; for
+    ``dprtf-eg-fast`` maps :data:`FAST_MAP_UNIFORM_PEAK_FLOOR`).
     Use ``DEFAULT_OBSERVATIONS[tracker]`` for a tracker's default.
     """
     if observations not in OBSERVATION_MODES:
@@ -327,7 +335,9 @@ def heatmap_sequence(
         )
     peaks = observations.startswith("peaks")
     if observations == "peaks-over-uniform":
-        floor = UNIFORM_PEAK_FLOOR / max(int(np.shape(weights)[-1]), 1)
+        if not (np.isfinite(uniform_floor) and uniform_floor >= 0):
+            raise ValueError(f"uniform_floor must be finite and >= 0, got {uniform_floor!r}")
+        floor = uniform_floor / max(int(np.shape(weights)[-1]), 1)
     return DOASequence.from_weights(
         weights,
         azimuth_deg,

@@ -259,6 +259,15 @@ class VonMisesConfig:
                 )
 
 
+#: Settings for ``dprtf-eg-fast`` heat maps (an option; the defaults are tuned on ``dprtf-eg``):
+#: DOAs down to 0.03 may start a source, to be used with observations
+#: ``heatmap_sequence(..., "peaks-over-uniform", uniform_floor=FAST_MAP_UNIFORM_PEAK_FLOOR)``
+#: (:data:`avtrack.doa.base.FAST_MAP_UNIFORM_PEAK_FLOOR`). Tuned on development seeds 10-15;
+#: meets issue 23's tracker targets on LOCATA-like scenes, not on Kinovis-like ones (see
+#: BENCHMARKS.md, issue 23, trackers on ``dprtf-eg-fast`` maps).
+FAST_MAP_CONFIG = VonMisesConfig(birth_floor=0.03)
+
+
 @register_tracker("vonmises")
 class VonMisesDOATracker(DOATracker):
     """von Mises VEM DOA tracker (thesis §5.6); see the module docstring for the model.
