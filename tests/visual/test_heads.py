@@ -179,3 +179,20 @@ def test_a_head_smaller_than_the_geometry_says_keeps_its_mouth_near_its_top():
     learnt(det)
     _, top, _, h = det.detect(img)[0][0]
     assert top + det.mouth_offset * h == pytest.approx(30 + 0.69 * 20, abs=1.5)
+
+
+def test_a_hole_under_the_head_top_still_bounds_the_head_by_its_width():
+    """A person standing still fades into the background model from the inside: the head's
+    column is not foreground a quarter head below the top. The foreground's extent around
+    the column still bounds the head (mouth 0.69 x ~24 below the top, not 0.69 x 40)."""
+    det = ForegroundHeadDetector(40.0)
+    learnt(det)
+    img = background()
+    person(img, 70, 30, 24)
+    img[35:47, 67:74] = background()[35:47, 67:74]  # a hole from 5 to 17 px below the top
+    boxes, _ = det.detect(img)
+    assert len(boxes) == 1
+    mask_row = det._solid[int(30 + 0.25 * 40)]
+    assert not mask_row[70]  # the hole is there at the row the width is measured on
+    _, top, _, h = boxes[0]
+    assert top + det.mouth_offset * h == pytest.approx(30 + 0.69 * 24, abs=4)  # 40: 57.6

@@ -36,7 +36,10 @@ whose highest part is the head. The detector
    (the lower face); otherwise (back of the head) the geometric mouth below the head top
    stays, with the head no taller than the foreground's width a quarter head below the
    top over ``head_aspect`` says (a seated person's mouth lies below the mouth plane, which
-   the geometry reads as a nearer, bigger head);
+   the geometry reads as a nearer, bigger head). Where the head-top column is not
+   foreground at that row (a person standing still fades into the background model from
+   the inside, leaving holes), the width is the foreground's extent there within half a
+   head height either side of the column;
 6. **identity evidence** (optional): the Bhattacharyya coefficient of the hue-saturation
    histogram of the head box (one head wide, 1.3 high from the top: head and neck) with the
    best-matching colour template scores each head; heads below ``min_similarity`` are dropped.
@@ -76,6 +79,14 @@ def _run_width(row: np.ndarray, x: int) -> int:
     a = int(np.argmin(left)) if not left.all() else len(left)
     b = int(np.argmin(right)) if not right.all() else len(right)
     return a + b - 1
+
+
+def _extent(row: np.ndarray, x: int, reach: float) -> int:
+    """Columns from the first to the last True of ``row`` within ``reach`` of column ``x``
+    (0 when there is none)."""
+    a, b = int(max(x - reach, 0)), int(min(x + reach + 1, len(row)))
+    cols = np.flatnonzero(row[a:b])
+    return int(cols[-1] - cols[0] + 1) if len(cols) else 0
 
 
 class ForegroundHeadDetector:
@@ -285,6 +296,8 @@ class ForegroundHeadDetector:
             for i in np.flatnonzero(~on_face).tolist():
                 y = int(min(int(top[i] + 0.25 * h[i]), H - 1))
                 wide = _run_width(self._solid[y], int(x[i]))
+                if wide == 0:  # a hole under the top: the foreground's extent there
+                    wide = _extent(self._solid[y], int(x[i]), 0.5 * h[i])
                 if wide > 0:
                     my[i] = top[i] + self.mouth_offset * min(h[i], wide / self.head_aspect)
         boxes = np.column_stack([mx - 0.375 * h, my - self.mouth_offset * h, 0.75 * h, h])
