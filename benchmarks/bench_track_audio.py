@@ -13,14 +13,16 @@ are summed over the scenes of a dataset.
 * frame-wise methods (SRP-PHAT, PRP-REM, DPRTF-REM, DPRTF-EG): the peaks of each frame above a
   threshold; as in the thesis, the threshold is swept and the point of the ROC curve closest to
   the origin (MD, FA) is reported, per method and dataset;
-* trackers on the DPRTF-EG heat maps, with their default parameters (chosen on development
+* trackers on the heat maps of the default localizer ``dprtf-eg-fast`` (``track-audio``'s and
+  ``stream``'s pipeline) and, for reference, of the thesis's ``dprtf-eg``, with their default
+  parameters for those maps (:func:`avtrack.doa.base.map_reading`; chosen on development
   seeds < 100, not the benchmark seeds), and with their activity threshold δ (eqs. 5.43 /
   5.62) swept like the peak threshold (ROC-best δ, the same protocol as the frame-wise
   methods): ``VEM + EG`` (:class:`~avtrack.doa.gauss.GaussDOATracker`, thesis §5.4) and
   ``vM-VEM + EG`` (:class:`~avtrack.doa.vonmises.VonMisesDOATracker`, thesis §5.6), each on
-  its default observations (``DEFAULT_OBSERVATIONS``: every candidate above the frame's median
-  for the Gaussian tracker, the heat-map peaks above 1.44 times the uniform weight for the von
-  Mises tracker), and the
+  its default observations for the map (fast maps: the peaks at or above 1.15 times the
+  uniform weight; thesis maps: every candidate above the frame's median for the Gaussian
+  tracker, the peaks above 1.44 times the uniform weight for the von Mises tracker), and the
   peer ``GM-PHD + EG`` (Stone Soup's GM-PHD tracker, :class:`~avtrack.doa.gmphd.GMPHDPeer`,
   on the peaks above ``PEAK_FLOOR`` = 0.05, the floor it was tuned with).
 
@@ -64,13 +66,12 @@ import numpy as np  # noqa: E402
 from avtrack.audio.arrays import load_array  # noqa: E402
 from avtrack.audio.recording import read_array_audio  # noqa: E402
 from avtrack.doa.base import (  # noqa: E402
-    DEFAULT_OBSERVATIONS,
     DOASequence,
     circular_peaks,
     heatmap_sequence,
     make_tracker,
+    map_reading,
 )
-from avtrack.doa.base import TRACKERS as REGISTERED  # noqa: E402
 from avtrack.doa.gmphd import GMPHDPeer  # noqa: E402
 from avtrack.io.base import atomic_write  # noqa: E402
 from avtrack.io.doa import DOATable, read_doa_csv  # noqa: E402
@@ -94,6 +95,8 @@ TRACKERS = (
     ("vM-VEM + EG", "vonmises"),
     ("GM-PHD + EG (Stone Soup)", "gmphd"),
 )
+#: Heat maps the trackers run on: the default pipeline's first, then the thesis's.
+TRACKER_MAPS = ("dprtf-eg-fast", "dprtf-eg")
 DATASETS = (
     ("locata-like", "Table 5.1 (LOCATA-like)"),
     ("kinovis-like", "Table 5.2 (Kinovis-like)"),
@@ -225,20 +228,29 @@ def frame_wise(scenes, method: str, skip: float) -> tuple[float, Row]:
 
 
 def tracked(
-    scenes, tracker: str, skip: float, activity_threshold: float | None = None, label: str = ""
+    scenes,
+    tracker: str,
+    skip: float,
+    activity_threshold: float | None = None,
+    label: str = "",
+    method: str = "dprtf-eg-fast",
 ) -> Row:
-    """A tracker on the DPRTF-EG heat maps (``row.rf``: the pipeline's RF)."""
+    """A tracker on ``method``'s heat maps, read as :func:`map_reading` says (``row.rf``: the
+    pipeline's RF)."""
     grid = DirectionGrid.azimuths().azimuth_deg
     total, loc_time, track_time, duration, n_frames = None, 0.0, 0.0, 0.0, 0
     per: list[TrackingScores] = []
     lags: list[float] = []
     for d, truth in scenes:
-        w, t, f, elapsed, dur = heatmaps(d, "dprtf-eg")
-        seq = heatmap_sequence(w, grid, f, t, STEP, DEFAULT_OBSERVATIONS.get(tracker, "peaks"))
+        w, t, f, elapsed, dur = heatmaps(d, method)
         if tracker == "gmphd":
+            seq = heatmap_sequence(w, grid, f, t, STEP, "peaks")
             trk = GMPHDPeer(frame_period_s=STEP * HOP_S)
         else:
-            config = REGISTERED[tracker].Config()
+            reading = map_reading(tracker, method)
+            seq = heatmap_sequence(w, grid, f, t, STEP, reading.observations,
+                                   uniform_floor=reading.uniform_floor)  # fmt: skip
+            config = reading.config
             if activity_threshold is not None:
                 config = dataclasses.replace(config, activity_threshold=activity_threshold)
             trk = make_tracker(tracker, config, frame_period_s=STEP * HOP_S)
@@ -255,14 +267,16 @@ def tracked(
     return Row(label or tracker, total, per, lags, (loc_time + track_time) / duration, True)
 
 
-def tracked_roc(scenes, tracker: str, skip: float, label: str) -> tuple[float, Row]:
+def tracked_roc(
+    scenes, tracker: str, skip: float, label: str, method: str = "dprtf-eg-fast"
+) -> tuple[float, Row]:
     """The tracker's own ROC: its activity threshold δ (eqs. 5.43 / 5.62) swept like the peak
     threshold of the frame-wise methods; ``(δ, row)`` at the point closest to the origin
     (MD, FA)."""
-    default = REGISTERED[tracker].Config().activity_threshold
+    default = map_reading(tracker, method).config.activity_threshold
     best = None
     for thr in default * np.geomspace(0.125, 2.0, 9):
-        row = tracked(scenes, tracker, skip, float(thr))
+        row = tracked(scenes, tracker, skip, float(thr), method=method)
         key = np.hypot(row.total.md_rate, row.total.fa_rate)
         if best is None or key < best[0]:
             best = (key, float(thr), row)
@@ -290,11 +304,13 @@ def accuracy(args) -> list[str]:
                 continue
             rows.append(frame_wise(scenes, m, args.skip)[1])
             print(f"  {kind} {m}: done", file=sys.stderr, flush=True)
-        for label, name in TRACKERS:
-            rows.append(tracked(scenes, name, args.skip, label=label))
-            if name != "gmphd":
-                rows.append(tracked_roc(scenes, name, args.skip, label)[1])
-            print(f"  {kind} {name}: done", file=sys.stderr, flush=True)
+        for method in TRACKER_MAPS:
+            for label, name in TRACKERS:
+                label = f"{label} ({LABELS[method]} maps)"
+                rows.append(tracked(scenes, name, args.skip, label=label, method=method))
+                if name != "gmphd" and not args.no_roc:
+                    rows.append(tracked_roc(scenes, name, args.skip, label, method)[1])
+                print(f"  {kind} {method} {name}: done", file=sys.stderr, flush=True)
         results[kind] = rows
         out += [
             f"### {title}: seeds {', '.join(map(str, args.seeds))}, {args.duration:g} s each",
@@ -325,7 +341,7 @@ def accuracy(args) -> list[str]:
             out.append(f"| {r.label} | " + " | ".join(cells) + " |")
         out.append("")
     out += [
-        "### Table 5.3 (LOCATA-like): trackers on the same DPRTF-EG observations",
+        "### Table 5.3 (LOCATA-like): trackers on the same DPRTF-EG observations (each map)",
         "",
         "| method | MD (%) | FA (%) | MAE (°) | IDs | OSPA (°) | lag (frames) |",
         "|---|---:|---:|---:|---:|---:|---:|",
@@ -352,21 +368,30 @@ def tracker_speed(n_frames: int = 2000) -> list[str]:
     seq_above = heatmap_sequence(w, grid, time_s=t, step=1, observations="above-median")
     seq_peaks = heatmap_sequence(w, grid, time_s=t, step=1, observations="peaks")
     seq_over = heatmap_sequence(w, grid, time_s=t, step=1, observations="peaks-over-uniform")
+    fast = {name: map_reading(name, "dprtf-eg-fast") for name in ("gauss", "vonmises")}
+    seq_fast = heatmap_sequence(w, grid, time_s=t, step=1, observations="peaks-over-uniform",
+                                uniform_floor=fast["gauss"].uniform_floor)  # fmt: skip
     out = [
         "| tracker | observations per frame | frames/s | × GM-PHD | mean tracks |",
         "|---|---:|---:|---:|---:|",
     ]
     rows = []
     cases = [
-        ("gauss (VEM + EG, above-median: default)", "gauss", seq_above),
-        ("gauss (VEM + EG, peaks-over-uniform)", "gauss", seq_over),
-        ("gauss (VEM + EG, all)", "gauss", seq_all),
-        ("vonmises (vM-VEM)", "vonmises", seq_all),
-        ("vonmises (vM-VEM, peaks-over-uniform: default)", "vonmises", seq_over),
-        ("GM-PHD (Stone Soup)", "gmphd", seq_peaks),
-    ]
-    for label, name, seq in cases:
-        trk = GMPHDPeer(frame_period_s=STEP * HOP_S) if name == "gmphd" else make_tracker(name)
+        ("gauss (VEM + EG, fast-map default: peaks >= 1.15/D)", "gauss", seq_fast,
+         fast["gauss"].config),
+        ("gauss (VEM + EG, above-median: dprtf-eg maps' default)", "gauss", seq_above, None),
+        ("gauss (VEM + EG, peaks-over-uniform)", "gauss", seq_over, None),
+        ("gauss (VEM + EG, all)", "gauss", seq_all, None),
+        ("vonmises (vM-VEM)", "vonmises", seq_all, None),
+        ("vonmises (vM-VEM, fast-map default: peaks >= 1.15/D)", "vonmises", seq_fast,
+         fast["vonmises"].config),
+        ("vonmises (vM-VEM, peaks-over-uniform: dprtf-eg maps' default)", "vonmises",
+         seq_over, None),
+        ("GM-PHD (Stone Soup)", "gmphd", seq_peaks, None),
+    ]  # fmt: skip
+    for label, name, seq, config in cases:
+        trk = (GMPHDPeer(frame_period_s=STEP * HOP_S) if name == "gmphd"
+               else make_tracker(name, config))  # fmt: skip
         sub = (
             seq
             if name != "gmphd"
@@ -395,25 +420,29 @@ def pipeline_speed(workdir: Path, duration: float) -> list[str]:
     x = read_array_audio(d / "audio.wav", array, quiet=True)
     grid = DirectionGrid.azimuths()
     out = [
-        "| pipeline (4 mics, DPRTF-EG + tracker every 32 ms) | localization RF | "
+        "| pipeline (4 mics, localizer + tracker every 32 ms) | localization RF | "
         "tracking RF | total RF |",
         "|---|---:|---:|---:|",
     ]
-    for name in ("gauss", "vonmises"):
-        loc = make_localizer("dprtf-eg", array, grid)
-        t0 = time.process_time()
-        h = loc.run(x)
-        t_loc = time.process_time() - t0
-        t0 = time.process_time()
-        seq = heatmap_sequence(
-            h.weights, grid.azimuth_deg, h.frames, h.time_s, STEP, DEFAULT_OBSERVATIONS[name]
-        )
-        make_tracker(name, frame_period_s=STEP * HOP_S).run(seq)
-        t_trk = time.process_time() - t0
-        dur = x.shape[1] / loc.fs
-        out.append(
-            f"| {name} | {t_loc / dur:.3f} | {t_trk / dur:.4f} | {(t_loc + t_trk) / dur:.3f} |"
-        )
+    for method in TRACKER_MAPS:
+        for name in ("gauss", "vonmises"):
+            loc = make_localizer(method, array, grid)
+            t0 = time.process_time()
+            h = loc.run(x)
+            t_loc = time.process_time() - t0
+            t0 = time.process_time()
+            reading = map_reading(name, method)
+            seq = heatmap_sequence(
+                h.weights, grid.azimuth_deg, h.frames, h.time_s, STEP, reading.observations,
+                uniform_floor=reading.uniform_floor,
+            )
+            make_tracker(name, reading.config, frame_period_s=STEP * HOP_S).run(seq)
+            t_trk = time.process_time() - t0
+            dur = x.shape[1] / loc.fs
+            out.append(
+                f"| {method} + {name} | {t_loc / dur:.3f} | {t_trk / dur:.4f} | "
+                f"{(t_loc + t_trk) / dur:.3f} |"
+            )
     return out
 
 
@@ -425,6 +454,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--workdir", type=Path, help="scene cache (default: a temporary folder)")
     p.add_argument("--no-speed", action="store_true")
     p.add_argument("--no-accuracy", action="store_true")
+    p.add_argument("--no-roc", action="store_true", help="skip the trackers' δ sweeps")
     p.add_argument("--markdown", type=Path, help="also write the tables to this file")
     args = p.parse_args(argv)
     tmp = None

@@ -9,7 +9,15 @@ import pytest
 
 from avtrack.config import build_config
 from avtrack.doa import TRACKERS, DOATracker, TrackFrame, make_tracker
-from avtrack.doa.base import DEFAULT_OBSERVATIONS, FRAME_PERIOD_S, heatmap_sequence
+from avtrack.doa.base import (
+    DEFAULT_OBSERVATIONS,
+    FAST_MAP_OVERRIDES,
+    FRAME_PERIOD_S,
+    UNIFORM_PEAK_FLOOR,
+    heatmap_sequence,
+    map_reading,
+)
+from avtrack.doa.vonmises import FAST_MAP_CONFIG
 from avtrack.io.doa import DOATable, wrap_azimuth
 from avtrack.metrics.doa_tracking import evaluate_tracks
 from avtrack.simulate.heatmaps import synthetic_heatmaps
@@ -79,3 +87,23 @@ def test_bad_input_is_refused_by_name(name):
         build_config(TRACKERS[name].Config, {"no_such_field": 1})
     with pytest.raises(ValueError, match="make_tracker"):
         make_tracker("no-such-tracker")
+
+
+def test_map_reading_per_localizer():
+    """dprtf-eg-fast maps: peaks over 1.15/D and the fast-map Config fields; other maps (and a
+    DOA table, method None): the tracker's DEFAULT_OBSERVATIONS, 1.44/D and Config defaults."""
+    for name in ("gauss", "vonmises"):
+        cls = TRACKERS[name].Config
+        fast = map_reading(name, "dprtf-eg-fast")
+        assert (fast.observations, fast.uniform_floor) == ("peaks-over-uniform", 1.15)
+        assert fast.config == dataclasses.replace(cls(), **FAST_MAP_OVERRIDES[name])
+        assert fast.config != cls()
+        for method in ("dprtf-eg", "srp-phat", None):
+            r = map_reading(name, method)
+            assert r.observations == DEFAULT_OBSERVATIONS[name]
+            assert r.uniform_floor == UNIFORM_PEAK_FLOOR
+            assert r.config == cls()
+    assert map_reading("vonmises", "dprtf-eg-fast").config == FAST_MAP_CONFIG
+    assert map_reading("gauss", "dprtf-eg-fast").config.obs_var == 0.0006
+    with pytest.raises(ValueError, match="tracker must be one of"):
+        map_reading("kalman", "dprtf-eg-fast")

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from avtrack.doa.base import (
-    DEFAULT_OBSERVATIONS,
     PEAK_FLOOR,
     heatmap_sequence,
     make_tracker,
+    map_reading,
 )
 from avtrack.io.scenario import validate_scenario
 from avtrack.localize import make_localizer
@@ -41,14 +41,18 @@ def blocks_of(x: np.ndarray, sizes) -> list[np.ndarray]:
     return out
 
 
-def batch_doa_tracks(array, x, tracker: str, step: int = 4):
-    loc = make_localizer("dprtf-eg", array)
+def batch_doa_tracks(array, x, tracker: str, step: int = 4, method: str = "dprtf-eg-fast"):
+    """The batch pipeline with the stream's defaults: ``method``'s maps, read as
+    :func:`map_reading` says."""
+    loc = make_localizer(method, array)
     heat = loc.run(x)
+    reading = map_reading(tracker, method)
     seq = heatmap_sequence(
         heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, step,
-        DEFAULT_OBSERVATIONS[tracker], PEAK_FLOOR,
+        reading.observations, PEAK_FLOOR, reading.uniform_floor,
     )
-    trk = make_tracker(tracker, None, frame_period_s=step * loc.stft_config.frame_period_s)
+    trk = make_tracker(tracker, reading.config,
+                       frame_period_s=step * loc.stft_config.frame_period_s)
     trk.reset()
     outs = [trk.step(a, w) for a, w in zip(seq.azimuth_deg, seq.weight, strict=True)]
     return seq, outs

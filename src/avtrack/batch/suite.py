@@ -225,7 +225,7 @@ def _task_localize(item: dict) -> dict[str, Any]:
 
     folder = Path(item["folder"])
     params = dict(item["params"])
-    method = params.pop("method", "dprtf-eg")
+    method = params.pop("method", "dprtf-eg-fast")
     if params:
         raise InputError(f"localize: unknown parameters {sorted(params)} (only 'method')")
     import soundfile as sf

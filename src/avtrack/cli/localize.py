@@ -67,7 +67,11 @@ rate than 16 kHz is resampled.""",
     p.add_argument("audio", type=Path, metavar="AUDIO.wav", help="multichannel recording")
     add_array_option(p)
     p.add_argument(
-        "--method", choices=sorted(LOCALIZERS), default="dprtf-eg", help="default: dprtf-eg"
+        "--method",
+        choices=sorted(LOCALIZERS),
+        default="dprtf-eg-fast",
+        help="default: dprtf-eg-fast (DPRTF-EG with fast position weights; dprtf-eg: the "
+        "thesis's estimator)",
     )
     p.add_argument(
         "-o",

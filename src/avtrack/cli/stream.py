@@ -54,14 +54,17 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="""\
 Online multi-speaker localization and tracking of a multichannel WAV stream read
 as it arrives (e.g. from a microphone array on stdin): DP-RTF + exponentiated-
-gradient localization every 8 ms, a VEM DOA tracker every 32 ms, one output row
-per track per frame with bounded latency and memory.""",
+gradient localization every 8 ms (dprtf-eg-fast by default), a VEM DOA tracker
+every 32 ms, one output row per track per frame with bounded latency and memory.""",
         epilog=EXAMPLES,
     )
     p.add_argument("audio", metavar="AUDIO.wav|-", help="WAV file, or - for standard input")
     add_array_option(p)
     p.add_argument(
-        "--method", choices=sorted(LOCALIZERS), default="dprtf-eg", help="default: dprtf-eg"
+        "--method",
+        choices=sorted(LOCALIZERS),
+        default="dprtf-eg-fast",
+        help="default: dprtf-eg-fast (dprtf-eg: the thesis's estimator)",
     )
     p.add_argument(
         "--tracker",
@@ -92,20 +95,21 @@ per track per frame with bounded latency and memory.""",
 
 def load_stream_config(path: Path | None, method: str, tracker: str) -> tuple[object, object]:
     """The localizer's and the tracker's Config from the ``--config`` file (defaults
-    without one); errors name the field, e.g. ``FILE: tracker.kappa_birth: ...``."""
-    from avtrack.doa.base import TRACKERS
+    without one: the tracker's for ``method``'s heat maps, ``map_reading``); errors name the
+    field, e.g. ``FILE: tracker.kappa_birth: ...``."""
+    from avtrack.doa.base import map_reading
     from avtrack.localize import LOCALIZERS
 
     loc_cls = LOCALIZERS[method].Config
-    trk_cls = TRACKERS[tracker].Config
+    trk_base = map_reading(tracker, method).config
     if path is None:
-        return loc_cls(), trk_cls()
+        return loc_cls(), trk_base
     values = read_config_mapping(path, "sections 'localizer' and 'tracker'")
     unknown = sorted(str(k) for k in values if k not in ("localizer", "tracker"))
     if unknown:
         raise InputError(f"{unknown[0]}: unknown field (allowed: localizer, tracker)", path)
     loc = build_config(loc_cls, values.get("localizer") or {}, path, "localizer")
-    trk = build_config(trk_cls, values.get("tracker") or {}, path, "tracker")
+    trk = build_config(trk_base, values.get("tracker") or {}, path, "tracker")
     return loc, trk
 
 

@@ -1,7 +1,8 @@
 """``avtrack track-audio``: acoustic multi-speaker tracking from a microphone-array WAV.
 
-Localizes every 8 ms frame (a registered localizer, DPRTF-EG by default: heat maps over the
-candidate azimuths), then tracks the speakers with a VEM tracker updated every 32 ms (thesis
+Localizes every 8 ms frame (a registered localizer, ``dprtf-eg-fast`` by default: DPRTF-EG
+with its peaks placed by fast position weights, heat maps over the candidate azimuths), then
+tracks the speakers with a VEM tracker updated every 32 ms (thesis
 §5.5.2): ``--tracker gauss`` (thesis §5.4) or ``vonmises`` (thesis §5.6). With ``--doa`` the
 observations come from a DOA CSV instead (any localizer's peaks), so tracking can follow any
 localizer. Writes one row per alive track per tracker frame
@@ -28,12 +29,13 @@ from avtrack.cli.base import (
 )
 from avtrack.config import load_config
 from avtrack.doa.base import (
-    DEFAULT_OBSERVATIONS,
     OBSERVATION_MODES,
     TRACKERS,
     DOASequence,
+    MapReading,
     heatmap_sequence,
     make_tracker,
+    map_reading,
 )
 from avtrack.errors import InputError
 from avtrack.io.doa import read_doa_csv, write_doa_csv
@@ -42,7 +44,7 @@ HOP_S = 0.008
 
 EXAMPLES = """\
 examples:
-  # DPRTF-EG localization + Gaussian VEM tracking on a NAO-head recording, with a figure
+  # DPRTF-EG (fast) localization + Gaussian VEM tracking on a NAO-head recording, with a figure
   avtrack track-audio scene/audio.wav --array scene/array.json -o tracks.csv --plot tracks.png
 
   # the von Mises tracker, scored against ground truth (MD / FA / MAE / IDs / OSPA)
@@ -53,7 +55,8 @@ examples:
   avtrack localize rec.wav --array av163 --method srp-phat -o doa.csv --threshold 0.0
   avtrack track-audio --doa doa.csv --tracker vonmises -o tracks.csv
 
-The --config YAML holds the tracker's parameters (GaussConfig / VonMisesConfig fields), e.g.:
+The --config YAML holds the tracker's parameters (GaussConfig / VonMisesConfig fields, over
+the defaults for the --method's heat maps), e.g.:
   activity_threshold: 0.5
   death_s: 20
 """
@@ -93,9 +96,10 @@ array frame, counter-clockwise from x, in (-180, 180].""",
     )
     p.add_argument(
         "--method",
-        default="dprtf-eg",
+        default="dprtf-eg-fast",
         metavar="NAME",
-        help="localizer for AUDIO.wav (avtrack localize --method; default dprtf-eg)",
+        help="localizer for AUDIO.wav (avtrack localize --method; default dprtf-eg-fast; "
+        "dprtf-eg is the thesis's estimator)",
     )
     p.add_argument(
         "--grid-step",
@@ -109,8 +113,9 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         choices=OBSERVATION_MODES,
         help="from heat maps: every candidate direction with its weight (all), the same with "
         "each frame's median weight removed (above-median), only the peaks >= 0.05 (peaks), "
-        "or only the peaks >= 1.44 x the uniform weight (peaks-over-uniform); default: "
-        "above-median for gauss, peaks-over-uniform for vonmises",
+        "or only the peaks >= F x the uniform weight (peaks-over-uniform; F = 1.15 on "
+        "dprtf-eg-fast maps, else 1.44); default: peaks-over-uniform on dprtf-eg-fast maps, "
+        "else above-median for gauss and peaks-over-uniform for vonmises",
     )
     p.add_argument(
         "--step",
@@ -142,13 +147,8 @@ array frame, counter-clockwise from x, in (-180, 180].""",
     add_common(p, run)
 
 
-def load_tracker_config(name: str, path: Path | None):
-    """The tracker's ``Config`` from a YAML file (defaults without one)."""
-    return load_config(path, TRACKERS[name].Config)
-
-
 def observations_from_audio(
-    args: argparse.Namespace, observations: str
+    args: argparse.Namespace, observations: str, uniform_floor: float
 ) -> tuple[DOASequence, float, float]:
     """Localize ``args.audio``; returns the tracker's observations, the signal duration and the
     localization time (seconds)."""
@@ -172,15 +172,25 @@ def observations_from_audio(
     heat = localize_signal(localizer, x, None, args.quiet)
     elapsed = time.perf_counter() - t0
     seq = heatmap_sequence(
-        heat.weights, grid.azimuth_deg, heat.frames, heat.time_s, args.step, observations
+        heat.weights, grid.azimuth_deg, heat.frames, heat.time_s, args.step, observations,
+        uniform_floor=uniform_floor,
     )
     return seq, x.shape[1] / localizer.fs, elapsed
 
 
 
 
+def reading_for(args: argparse.Namespace) -> MapReading:
+    """The tracker's default reading of the input: of ``--method``'s heat maps for AUDIO.wav,
+    of ``dprtf-eg``'s (the ``Config`` defaults) for a ``--doa`` table."""
+    if args.tracker not in TRACKERS:
+        raise InputError(f"--tracker must be one of {sorted(TRACKERS)}, got {args.tracker!r}")
+    return map_reading(args.tracker, args.method if args.doa is None else None)
+
+
 def run(args: argparse.Namespace) -> int:
-    config = load_tracker_config(args.tracker, args.config)
+    reading = reading_for(args)
+    config = load_config(args.config, reading.config)
     if args.step < 1:
         raise InputError(f"--step must be >= 1, got {args.step}")
     if args.doa is None and args.audio is None:
@@ -188,7 +198,7 @@ def run(args: argparse.Namespace) -> int:
     if args.doa is not None and args.audio is not None:
         raise InputError("give either AUDIO.wav or --doa DOA.csv, not both")
     truth = read_doa_csv(args.truth) if args.truth is not None else None
-    observations = args.observations or DEFAULT_OBSERVATIONS.get(args.tracker, "all")
+    observations = args.observations or reading.observations
     hop = HOP_S
     if args.doa is not None:
         table = read_doa_csv(args.doa)
@@ -202,7 +212,7 @@ def run(args: argparse.Namespace) -> int:
         t_loc = 0.0
         source = args.doa.name
     else:
-        seq, duration, t_loc = observations_from_audio(args, observations)
+        seq, duration, t_loc = observations_from_audio(args, observations, reading.uniform_floor)
         source = args.audio.name
     tracker = make_tracker(args.tracker, config, frame_period_s=args.step * hop)
     t0 = time.perf_counter()

@@ -14,6 +14,7 @@ Angles are in degrees in the public API, wrapped to (−180, 180].
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Any, ClassVar
@@ -88,10 +89,67 @@ PEAK_FLOOR = 0.05
 UNIFORM_PEAK_FLOOR = 1.44
 
 #: The same multiple for the lower, wider peaks of ``dprtf-eg-fast`` heat maps (1.15 / 72 ≈
-#: 0.016): pass it as ``heatmap_sequence(..., uniform_floor=FAST_MAP_UNIFORM_PEAK_FLOOR)``
-#: with :data:`avtrack.doa.vonmises.FAST_MAP_CONFIG`. An option, not a default: every command
-#: reads ``dprtf-eg``. See BENCHMARKS.md (issue 23, trackers on ``dprtf-eg-fast`` maps).
+#: 0.016), part of :data:`MAP_READINGS` for that localizer. See BENCHMARKS.md (issue 23,
+#: trackers on ``dprtf-eg-fast`` maps).
 FAST_MAP_UNIFORM_PEAK_FLOOR = 1.15
+
+
+@dataclass(frozen=True)
+class MapReading:
+    """How a tracker reads one localizer's heat maps by default (:func:`map_reading`).
+
+    Attributes
+    ----------
+    observations : str
+        One of :data:`OBSERVATION_MODES`.
+    uniform_floor : float
+        Peak floor of ``"peaks-over-uniform"``, as a multiple of the uniform weight ``1/D``.
+    config : dataclass
+        The tracker's ``Config``.
+    """
+
+    observations: str
+    uniform_floor: float
+    config: Any
+
+
+#: Tracker settings per localizer whose maps differ from ``dprtf-eg``'s, as field overrides on
+#: the tracker's ``Config`` (other localizers: the ``Config`` defaults with
+#: :data:`DEFAULT_OBSERVATIONS` and :data:`UNIFORM_PEAK_FLOOR`). ``dprtf-eg-fast`` maps
+#: (issue 23) have lower, wider and faster peaks: both trackers take the peaks at or above
+#: 1.15 / D of the block's last frame; the von Mises tracker lets DOAs from 0.03 start a source;
+#: the Gaussian tracker, on peaks rather than whole lobes, uses a smaller observation variance
+#: (0.0006), keeps more of its angular velocity from frame to frame (0.98) and a lower activity
+#: threshold δ (0.02, for the peaks' lower weights). Tuned on development seeds 10-15 of both
+#: scene kinds and checked on benchmark seeds 0-4 (BENCHMARKS.md, issue 23, fifth session).
+FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
+    "gauss": {"obs_var": 0.0006, "velocity_decay": 0.98, "activity_threshold": 0.02},
+    "vonmises": {"birth_floor": 0.03},
+}
+
+#: ``{method: ("peaks-over-uniform" floor, {tracker: Config overrides})}``
+MAP_READINGS: dict[str, tuple[float, dict[str, dict[str, Any]]]] = {
+    "dprtf-eg-fast": (FAST_MAP_UNIFORM_PEAK_FLOOR, FAST_MAP_OVERRIDES),
+}
+
+
+def map_reading(tracker: str, method: str | None = None) -> MapReading:
+    """The default observations, peak floor and ``Config`` of ``tracker`` on heat maps of the
+    localizer ``method`` (None: a DOA table or a map of unknown origin, read as ``dprtf-eg``'s).
+
+    Every tracker takes ``"peaks-over-uniform"`` observations on the maps of
+    :data:`MAP_READINGS`; elsewhere its :data:`DEFAULT_OBSERVATIONS`.
+    """
+    if tracker not in TRACKERS:
+        raise ValueError(
+            f"map_reading: tracker must be one of {sorted(TRACKERS)}, got {tracker!r}"
+        )
+    cls = TRACKERS[tracker].Config
+    if method in MAP_READINGS:
+        floor, overrides = MAP_READINGS[method]
+        config = dataclasses.replace(cls(), **overrides.get(tracker, {}))
+        return MapReading("peaks-over-uniform", floor, config)
+    return MapReading(DEFAULT_OBSERVATIONS.get(tracker, "all"), UNIFORM_PEAK_FLOOR, cls())
 
 
 #: Class decorator registering a :class:`DOATracker` subclass under a name.

@@ -246,7 +246,7 @@ def make_localizer(
 def localize(
     signal: np.ndarray,
     array: MicArray,
-    method: str = "dprtf-eg",
+    method: str = "dprtf-eg-fast",
     grid: DirectionGrid | None = None,
     config: Any = None,
     stft: STFTConfig | None = None,

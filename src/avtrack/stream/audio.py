@@ -20,12 +20,13 @@ import numpy as np
 
 from avtrack.audio.arrays import MicArray
 from avtrack.doa.base import (
-    DEFAULT_OBSERVATIONS,
     OBSERVATION_MODES,
     PEAK_FLOOR,
+    TRACKERS,
     TrackFrame,
     heatmap_sequence,
     make_tracker,
+    map_reading,
 )
 from avtrack.localize import DirectionGrid, make_localizer
 
@@ -58,19 +59,20 @@ class DOAStream:
     array : MicArray
         The microphone array; channel ``k`` of every block is microphone ``k``.
     method : str
-        Localizer (``avtrack.localize.LOCALIZERS``; default ``"dprtf-eg"``).
+        Localizer (``avtrack.localize.LOCALIZERS``; default ``"dprtf-eg-fast"``).
     tracker : str
         DOA tracker (``"gauss"`` or ``"vonmises"``; default ``"vonmises"``).
     step : int
         Localizer frames per tracker frame (default 4: 32 ms).
     observations : {"all", "above-median", "peaks", "peaks-over-uniform"}, optional
         Every candidate direction, the same above each frame's median weight, the heat map's
-        peaks at or above ``floor``, or those at or above 1.44 times the uniform weight
-        (default: the tracker's own, :data:`~avtrack.doa.base.DEFAULT_OBSERVATIONS`).
+        peaks at or above ``floor``, or those at or above a multiple of the uniform weight
+        (default: the tracker's own for ``method``'s maps, :func:`~avtrack.doa.base.map_reading`).
     grid : DirectionGrid, optional
         Candidate directions (default: 72 azimuths every 5 degrees).
     method_config, tracker_config : optional
-        The localizer's and the tracker's ``Config`` dataclasses (default parameters).
+        The localizer's and the tracker's ``Config`` dataclasses (default: the localizer's
+        defaults, and the tracker's for ``method``'s maps, :func:`~avtrack.doa.base.map_reading`).
     floor : float
         With ``"peaks"`` observations, drop peaks below this weight (default
         :data:`~avtrack.doa.base.PEAK_FLOOR`).
@@ -87,7 +89,7 @@ class DOAStream:
         self,
         array: MicArray,
         *,
-        method: str = "dprtf-eg",
+        method: str = "dprtf-eg-fast",
         tracker: str = "vonmises",
         step: int = 4,
         observations: str | None = None,
@@ -98,7 +100,14 @@ class DOAStream:
     ) -> None:
         if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
             raise ValueError(f"DOAStream: step must be a positive integer, got {step!r}")
-        observations = observations or DEFAULT_OBSERVATIONS.get(tracker, "all")
+        if tracker not in TRACKERS:
+            raise ValueError(
+                f"DOAStream: tracker must be one of {sorted(TRACKERS)}, got {tracker!r}"
+            )
+        reading = map_reading(tracker, method)
+        observations = observations or reading.observations
+        if tracker_config is None:
+            tracker_config = reading.config
         if observations not in OBSERVATION_MODES:
             raise ValueError(
                 f"DOAStream: observations must be one of {OBSERVATION_MODES}, got "
@@ -116,6 +125,7 @@ class DOAStream:
         self.step = int(step)
         self.observations = observations
         self.floor = float(floor)
+        self.uniform_floor = reading.uniform_floor
         hop = self.localizer.stft_config.frame_period_s
         self.tracker = make_tracker(tracker, tracker_config, frame_period_s=self.step * hop)
         self._azimuths = np.array(self.grid.azimuth_deg, dtype=float)
@@ -181,6 +191,7 @@ class DOAStream:
             self.step,
             self.observations,
             self.floor,
+            self.uniform_floor,
         )
         rows = zip(seq.frames, seq.time_s, seq.azimuth_deg, seq.weight, strict=True)
         return [DOAStreamFrame(int(f), float(t), self.tracker.step(a, w)) for f, t, a, w in rows]
