@@ -101,6 +101,31 @@ def test_transition_prior_with_unit_diffusion_gives_the_optimal_proposal():
     np.testing.assert_allclose(log_w, want, atol=0.02)
 
 
+def test_scaled_label_prior_gives_the_kalman_update_of_its_covariance():
+    # By hand, x-axis only: Q_xx = 4, the label's spread Sigma_xx = 12, scale 1/4, so the
+    # prior of eq. 9 is P_xx = 4 + 12 / 4 = 7; a face at x = 23 (sigma_visual = 4, R = 16)
+    # moves the label's mean from 0 by the Kalman gain 7 / (7 + 16), to 7 px, and with unit
+    # diffusion the flow's law from N(0, P) is the posterior, variance 7 * 16 / 23.
+    from avtrack.phd.likelihood import visual_information
+    from avtrack.phd.lpf import label_flow_prior
+
+    Q = np.diag([4.0, 4.0, 1.0, 1.0])
+    Sigma = np.diag([12.0, 12.0, 0.0, 0.0])
+    P = label_flow_prior(Sigma[None], Q, 0.25)[0]
+    assert P[0, 0] == pytest.approx(7.0)
+    assert np.allclose(label_flow_prior(Sigma[None], Q, 0.0)[0], Q)  # the transition prior
+    assert np.allclose(label_flow_prior(Sigma[None], Q)[0], Sigma + Q)  # eqs. 18-20
+    A, b = visual_information(np.array([[23.0, 0.0]]), 4.0)
+    B = np.zeros((1, 4, 3))
+    B[0, 0, 0] = B[0, 1, 1] = 1 / 4.0
+    M, c, Sig = affine_flow_map(np.linalg.inv(P)[None], A.reshape(1, 4, 4), b.reshape(1, 4), B,
+                                flow_steps(200, 1.0), 1.0)
+    assert c[0, 0] == pytest.approx(7.0, abs=0.02)
+    assert (M[0] @ P @ M[0].T + Sig[0])[0, 0] == pytest.approx(7 * 16 / 23, abs=0.02)
+    with pytest.raises(ValueError, match="label_prior_scale"):
+        PHDConfig(label_prior_scale=-1.0)
+
+
 def test_marginal_weight_of_one_parent_is_the_per_parent_weight():
     rng = np.random.default_rng(6)
     _, Q = constant_velocity(2.0, 0.5, 0.8)

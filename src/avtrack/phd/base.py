@@ -113,6 +113,14 @@ class PHDConfig:
         label-wide Kalman gain, far more than its own transition noise allows, and the
         importance weights spread (sequence 45 camera 1, first 400 frames, seed 0: ESS 32
         and 217 resamplings with ``diffusion`` 1, 21 and 283 with 0.3, against 42 and 131).
+    label_prior_scale : float
+        ``beta`` of ``flow_prior="label"``: the prior covariance of eq. 9 is
+        ``beta * Sigma_l + Q``, ``Sigma_l`` the weighted covariance of the label's predicted
+        particles (eqs. 18–20); 1 (default) is the seed's, 0 the transition prior. Any
+        ``beta`` gives valid importance weights (the proposal law of the flow run is known).
+        Not the default: six shared pairs, 10 seeds, ``beta`` 0.25 gives ESS 53.5 and 76
+        resamplings per sequence (all six under 100) against 47.1 and 173, but LPF OSPA-T on
+        45 (1) 16.10 against 14.97 (target 15.53; BENCHMARKS.md, issue 24).
     marginal_weights : bool
         LPF with ``"proposal"`` weights: weight each particle of a label for the label's
         predicted intensity ``D(m) = sum_j w_j phi(m | m_{k-1}^j)`` (eq. 4 over the parents)
@@ -222,6 +230,7 @@ class PHDConfig:
     diffusion: float | None = None
     flow_weights: str = "proposal"
     flow_prior: str = "transition"
+    label_prior_scale: float = 1.0
     marginal_weights: bool = True
     coast_frames: int = 0
     ambiguity_ratio: float = 6.0
@@ -269,7 +278,8 @@ class PHDConfig:
             raise ValueError(
                 f"PHDConfig: diffusion must be a finite number >= 0, got {self.diffusion!r}"
             )
-        for name in ("weight_audio", "weight_visual", "relabel_distance", "relink_speed"):
+        for name in ("weight_audio", "weight_visual", "relabel_distance", "relink_speed",
+                     "label_prior_scale"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"PHDConfig: {name} must be a finite number >= 0, got {v!r}")

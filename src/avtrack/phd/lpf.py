@@ -23,7 +23,8 @@ the default ``flow_weights="proposal"``:
   one whose spread since it was dropped makes the birth most likely, ``relink_rule``);
 - the flow (eqs. 6–9) uses the label's likelihood (eq. 21, Gaussian in the position: the flow
   is affine) with the particle's transition covariance ``Q`` as the prior of eq. 9
-  (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance), composed into one
+  (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance, scaled by
+  ``label_prior_scale``, :func:`label_flow_prior`), composed into one
   Gaussian map per label (:func:`~avtrack.phd.flow.affine_flow_map`);
 - weights follow eqs. 22–23 with density likelihoods and clutter intensities
   (:func:`~avtrack.phd.smc_phd.measurement_model`) and the importance weight of the flow
@@ -107,6 +108,19 @@ def label_information(
         b[use_a] += ba
         B[use_a, :2, 2] = lines[:, :2] / sigma_audio
     return A, b, B
+
+
+def label_flow_prior(cov: np.ndarray, Q: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """Prior covariance of eq. 9 for the labelled flow: ``scale * Sigma_l + Q``.
+
+    ``Sigma_l`` (``cov``, (G, 4, 4)) is the weighted covariance of each label's predicted
+    particles (eqs. 18–20); ``Q`` the transition covariance, a floor. ``scale`` 1 is the
+    seed's ``P_{k|k-1}``; 0 the particle's own transition prior (``flow_prior=
+    "transition"``). Between the two the flow moves a label's particles by more than their
+    own transition allows but less than the label-wide Kalman gain; the weights stay the
+    flow's importance weights for any ``scale`` (``PHDConfig.label_prior_scale``).
+    """
+    return scale * np.asarray(cov) + Q
 
 
 @register_phd_filter("lpf")
@@ -357,8 +371,10 @@ class LPFSMCPHD(SMCPHDFilter):
             ukey, group = np.unique(key, return_inverse=True)
             # eqs. 18-20: covariance of the predicted particles sharing both labels
             _, mean, cov = weighted_moments(pred.states[det], pred.weights[det], group, len(ukey))
-            if cfg.flow_prior == "label" or legacy:
+            if legacy:
                 P = cov + self.Q  # eqs. 18-20, the label's spread (Q: a floor)
+            elif cfg.flow_prior == "label":  # the same, scaled by label_prior_scale
+                P = label_flow_prior(cov, self.Q, cfg.label_prior_scale)
             else:  # the particle's own transition density N(F m_{k-1}, Q)
                 P = np.broadcast_to(self.Q, cov.shape)
             prior_info = np.linalg.inv(P)
