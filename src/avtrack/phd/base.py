@@ -103,24 +103,37 @@ class PHDConfig:
         particle's label or cluster mean and covariance ``P_{k|k-1}`` (``"gaussian"``); or no
         factor (``"none"``, eq. 11 as written). Both filters use the same setting.
     flow_prior : {"transition", "label"}
-        The prior covariance ``P_{k|k-1}`` of eq. 9 in the labelled flow. ``"label"``: the
-        weighted covariance of the particles sharing the label plus ``Q`` (eqs. 18–20, as the
-        seed; always used with the legacy ``flow_weights``). ``"transition"`` (default): the
-        particle's own transition covariance ``Q``; with ``diffusion = 1`` the flow then
-        carries ``N(F m_{k-1}, Q)`` exactly onto the posterior given the parent and the label's
-        Gaussian likelihood, and the ``"proposal"`` weight is that posterior's normaliser (the
-        optimal proposal). With the label's covariance the flow moves each particle by the
-        label-wide Kalman gain, far more than its own transition noise allows, and the
-        importance weights spread (sequence 45 camera 1, first 400 frames, seed 0: ESS 32
-        and 217 resamplings with ``diffusion`` 1, 21 and 283 with 0.3, against 42 and 131).
+        The prior covariance ``P_{k|k-1}`` of eq. 9 in the labelled flow. ``"label"``
+        (default): the weighted covariance of the particles sharing the label, scaled by
+        ``label_prior_scale``, plus ``Q`` (eqs. 18–20; unscaled with the legacy
+        ``flow_weights``). ``"transition"``: the particle's own transition covariance ``Q``;
+        with ``diffusion = 1`` the flow then carries ``N(F m_{k-1}, Q)`` exactly onto the
+        posterior given the parent and the label's Gaussian likelihood, and the
+        ``"proposal"`` weight is that posterior's normaliser (the optimal proposal). With the
+        full label covariance the flow moves each particle by the label-wide Kalman gain, far
+        more than its own transition noise allows, and labels swap at crossings; a quarter of
+        it (the default) keeps the marginal weights even (six shared pairs, 10 seeds: 76
+        resamplings per sequence against 173 with ``"transition"``) but lets a label learn
+        its speaker's velocity, hence ``faceless_velocity_decay``.
     label_prior_scale : float
         ``beta`` of ``flow_prior="label"``: the prior covariance of eq. 9 is
         ``beta * Sigma_l + Q``, ``Sigma_l`` the weighted covariance of the label's predicted
-        particles (eqs. 18–20); 1 (default) is the seed's, 0 the transition prior. Any
-        ``beta`` gives valid importance weights (the proposal law of the flow run is known).
-        Not the default: six shared pairs, 10 seeds, ``beta`` 0.25 gives ESS 53.5 and 76
-        resamplings per sequence (all six under 100) against 47.1 and 173, but LPF OSPA-T on
-        45 (1) 16.10 against 14.97 (target 15.53; BENCHMARKS.md, issue 24).
+        particles (eqs. 18–20); 1 is the seed's, 0 the transition prior, 0.25 the default.
+        Any ``beta`` gives valid importance weights (the proposal law of the flow run is
+        known).
+    faceless_velocity_decay : float
+        LPF: ``a`` in ``[0, 1]``. A label whose last update had no face point (a DOA line
+        alone, or no measurement; not a label coasting by the occlusion rule) is predicted
+        with its velocity multiplied by ``a`` (``v_k = a v_{k-1}``; the position still moves
+        by ``v_{k-1}``): a mean-reverting velocity (Singer 1970) while the speaker's motion
+        is not observed. A DOA line measures only the direction to the speaker, never the
+        distance along the line, so without it a label that enters a face gap moving keeps
+        moving along the line (sequence 45 camera 1, seed 2: from x = 201 to 313 in 50
+        frames) and is dropped; a speaker without face detections is as likely to have
+        stopped. It carries a label at most ``a / (1 - a)`` frames of its last velocity
+        further. 1: the constant-velocity model. Default 0.8 (with ``flow_prior="label"``,
+        ``beta`` 0.25, 45 (1), 10 seeds, LPF OSPA-T: 1 16.10, 0.9 14.92, 0.8 14.33, 0.5
+        14.49, 0 14.41 (target 15.53); BENCHMARKS.md, issue 24).
     marginal_weights : bool
         LPF with ``"proposal"`` weights: weight each particle of a label for the label's
         predicted intensity ``D(m) = sum_j w_j phi(m | m_{k-1}^j)`` (eq. 4 over the parents)
@@ -229,8 +242,9 @@ class PHDConfig:
     flow_step_ratio: float = 1.2
     diffusion: float | None = None
     flow_weights: str = "proposal"
-    flow_prior: str = "transition"
-    label_prior_scale: float = 1.0
+    flow_prior: str = "label"
+    label_prior_scale: float = 0.25
+    faceless_velocity_decay: float = 0.8
     marginal_weights: bool = True
     coast_frames: int = 0
     ambiguity_ratio: float = 6.0
@@ -301,6 +315,11 @@ class PHDConfig:
             raise ValueError(
                 f"PHDConfig: motion_correlation must be in (-1, 1), got "
                 f"{self.motion_correlation!r}"
+            )
+        if not 0 <= self.faceless_velocity_decay <= 1:
+            raise ValueError(
+                f"PHDConfig: faceless_velocity_decay must be in [0, 1], got "
+                f"{self.faceless_velocity_decay!r}"
             )
         if self.flow_prior not in FLOW_PRIORS:
             raise ValueError(

@@ -22,10 +22,15 @@ the default ``flow_weights="proposal"``:
   kept; a dropped label stays a candidate until it is confirmed again; among several, the
   one whose spread since it was dropped makes the birth most likely, ``relink_rule``);
 - the flow (eqs. 6–9) uses the label's likelihood (eq. 21, Gaussian in the position: the flow
-  is affine) with the particle's transition covariance ``Q`` as the prior of eq. 9
-  (``flow_prior="transition"``; ``"label"``: eqs. 18–20's label covariance, scaled by
-  ``label_prior_scale``, :func:`label_flow_prior`), composed into one
-  Gaussian map per label (:func:`~avtrack.phd.flow.affine_flow_map`);
+  is affine) with a quarter of eqs. 18–20's label covariance plus ``Q`` as the prior of eq. 9
+  (``flow_prior="label"``, ``label_prior_scale`` 0.25, :func:`label_flow_prior`;
+  ``"transition"``: the particle's own ``Q``), composed into one Gaussian map per label
+  (:func:`~avtrack.phd.flow.affine_flow_map`);
+- a label whose last update had no face point (a DOA line alone, which does not measure the
+  distance along the line, or no measurement) is predicted with its velocity decayed by
+  ``faceless_velocity_decay`` per frame (:meth:`LPFSMCPHD._transition_mean`; not in the
+  seed): it no longer runs off along a DOA line at the velocity it entered the face gap
+  with;
 - weights follow eqs. 22–23 with density likelihoods and clutter intensities
   (:func:`~avtrack.phd.smc_phd.measurement_model`) and the importance weight of the flow
   actually run: for the label's predicted intensity against the mixture of its parents'
@@ -145,6 +150,18 @@ class LPFSMCPHD(SMCPHDFilter):
         self._occluded: set[int] = set()  # labels coasting through an ambiguous frame
         self._held: dict[int, int] = {}  # such label -> consecutive frames coasted
         self._withheld: set[int] = set()  # the measurements they leave to nobody
+        self._faceless: set[int] = set()  # labels whose last update had no face point
+
+    def _transition_mean(self) -> np.ndarray:
+        """``F m_{k-1}``; for a label whose last update had no face point (a DOA line alone or
+        no measurement, not an occluded label), the velocity decays by
+        ``faceless_velocity_decay`` per frame (``F`` with ``a`` in the velocity block)."""
+        mean = super()._transition_mean()
+        a = self.config.faceless_velocity_decay
+        if a < 1 and self._faceless and len(mean):
+            sel = np.isin(self.tids, list(self._faceless))
+            mean[sel, 2:] = a * self.states[sel, 2:]
+        return mean
 
     def _associate(self, frame: AVFrame, pred: Prediction) -> dict[int, int]:
         """Label-to-measurement association (eqs. 15–16 taken per label): each label takes at
@@ -465,6 +482,10 @@ class LPFSMCPHD(SMCPHDFilter):
             # eq. 11 for the label's particles, all drawn by its flow: the missed-detection
             # term too, with the same importance weight
             weights[det] += miss * pred.weights[det] * rho[det]
+        # the labels whose velocity decays in the next prediction (faceless_velocity_decay)
+        faced = {t for t, r in self._assoc.items() if pairs[r, 1] > 0}
+        self._faceless = (set() if legacy
+                          else set(np.unique(pred.tids).tolist()) - faced - self._occluded)
         return self._extract(moved, weights, pred.tids, meas, on_measurement)
 
     def _extract(

@@ -357,7 +357,7 @@ class SMCPHDFilter(PHDFilter):
 
     def _predict(self, frame: AVFrame) -> Prediction:
         cfg = self.config
-        mean = self.states @ self.F.T  # F m_{k-1}
+        mean = self._transition_mean()  # F m_{k-1}
         noise = self.rng.standard_normal(self.states.shape) @ self._Q_chol.T
         pred = mean + noise  # eq. 1 / 14: m_{k|k-1} = F m_{k-1} + n
         log_a, log_v = pair_log_kernels(pred[:, :2], frame, cfg.sigma_visual, cfg.sigma_audio)
@@ -369,6 +369,10 @@ class SMCPHDFilter(PHDFilter):
         lik = np.exp(log_lik)
         explained = w @ lik * p_d > kappa  # eq. 12 at the predicted particles
         return Prediction(pred, mean, w, self.tids, log_a, log_v, gated, explained)
+
+    def _transition_mean(self) -> np.ndarray:
+        """``F m_{k-1}`` of every particle (eq. 1), the mean of its transition density."""
+        return self.states @ self.F.T
 
     def _birth(self, frame: AVFrame, pred: Prediction) -> Births:
         cfg = self.config
