@@ -21,9 +21,14 @@ Speed: ``track-av`` (localization included) on one walkout scene with BLAS on on
 real-time factor and as a ratio to the visual-only tracker; the direction model needs no
 calibration or training, so a second run on the same geometry spends 0 s on it.
 
+``--localizer`` picks the heat maps the direction model reads (default: the pipeline's,
+``avtrack.av.persons_scene.PERSONS_LOCALIZER``), with their own peak floor
+(``audio_peak_floor``).
+
 Usage::
 
     python benchmarks/bench_persons.py --work /tmp/avt/bench-persons [--seeds 0-7]
+        [--localizer dprtf-eg-fast]
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from avtrack.av.persons_scene import track_scene_persons  # noqa: E402
+from avtrack.av.persons_scene import PERSONS_LOCALIZER, track_scene_persons  # noqa: E402
 from avtrack.av.vavit import fov_strip, track_scene  # noqa: E402
 from avtrack.io.doa import read_doa_csv  # noqa: E402
 from avtrack.io.mot import read_mot  # noqa: E402
@@ -74,12 +79,12 @@ def gt_directions(d: Path, gt, fps: float, n_frames: int, fov: tuple[float, floa
     return truth_per_frame(read_doa_csv(d / "gt" / "doa.csv"), gt, fps, n_frames, fov)
 
 
-def run_scene(d: Path, fov_fraction: float) -> dict:
+def run_scene(d: Path, fov_fraction: float, localizer: str = PERSONS_LOCALIZER) -> dict:
     sc = load_scene(d)
     gt = read_mot(d / "gt" / "gt.txt", kind="gt")
     ref = read_rttm(d / "gt" / "speech.rttm")
     vis = track_scene(d, use_audio=False, fov_fraction=fov_fraction, scene=sc)
-    av = track_scene_persons(sc, fov_fraction=fov_fraction)
+    av = track_scene_persons(sc, fov_fraction=fov_fraction, localizer=localizer)
     mv = evaluate_mot(gt, vis.tracks, n_frames=sc.n_frames)
     ma = evaluate_mot(gt, av.tracks, n_frames=sc.n_frames)
     der = diarization_error_rate(ref, av.speech, collar=0.25)
@@ -135,13 +140,13 @@ def report(suite: str, rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def speed(work: Path, repeats: int = 2) -> str:
+def speed(work: Path, repeats: int = 2, localizer: str = PERSONS_LOCALIZER) -> str:
     d = scene_dir(work, "walkout", 0, 40.0)
     sc = load_scene(d)
     t_av, t_vis = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        track_scene_persons(sc)
+        track_scene_persons(sc, localizer=localizer)
         t_av.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
         track_scene(d, use_audio=False, scene=sc)
@@ -160,6 +165,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--duration", type=float, default=40.0)
     ap.add_argument("--suites", default=",".join(SUITES))
     ap.add_argument("--no-speed", action="store_true")
+    ap.add_argument("--localizer", default=PERSONS_LOCALIZER,
+                    help=f"heat maps of the direction model (default {PERSONS_LOCALIZER})")
     args = ap.parse_args(argv)
     if "-" in args.seeds:
         lo, hi = (int(x) for x in args.seeds.split("-"))
@@ -167,14 +174,16 @@ def main(argv: list[str] | None = None) -> int:
     else:
         seeds = [int(x) for x in args.seeds.split(",")]
     print(f"# bench_persons: {platform.processor() or platform.machine()}, "
-          f"{time.strftime('%Y-%m-%d')}, seeds {args.seeds}, {args.duration:g} s scenes")
+          f"{time.strftime('%Y-%m-%d')}, seeds {args.seeds}, {args.duration:g} s scenes, "
+          f"localizer {args.localizer}")
     for suite in args.suites.split(","):
         kind, fov = SUITES[suite]
-        rows = [run_scene(scene_dir(args.work, kind, s, args.duration), fov) for s in seeds]
+        rows = [run_scene(scene_dir(args.work, kind, s, args.duration), fov, args.localizer)
+                for s in seeds]
         print(report(suite, rows), flush=True)
         print()
     if not args.no_speed:
-        print(speed(args.work))
+        print(speed(args.work, localizer=args.localizer))
     return 0
 
 

@@ -9,7 +9,14 @@ from hypothesis import strategies as st
 
 from avtrack.av.geometry import CameraGeometry
 from avtrack.av.persons import PersonConfig, PersonTracker
-from avtrack.av.persons_scene import audio_peaks, track_persons
+from avtrack.av.persons_scene import (
+    AUDIO_PEAK_FLOOR,
+    AUDIO_PEAK_FLOORS,
+    PERSONS_LOCALIZER,
+    audio_peak_floor,
+    audio_peaks,
+    track_persons,
+)
 from avtrack.config import build_config
 from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
@@ -202,6 +209,42 @@ def test_audio_peaks_average_each_video_frame():
     t = np.r_[np.linspace(0, 0.016, 5), np.linspace(0.03, 0.05, 5)]
     peaks = audio_peaks(w, t, grid, 25.0, 3, floor=0.1)
     assert [p.tolist() for p in peaks] == [[0.0], [180.0], []]
+
+
+def test_audio_peak_floor_per_localizer():
+    from avtrack.localize import LOCALIZERS
+
+    assert PERSONS_LOCALIZER in LOCALIZERS
+    assert set(AUDIO_PEAK_FLOORS) <= set(LOCALIZERS)
+    assert audio_peak_floor(None) == audio_peak_floor("dprtf-eg") == AUDIO_PEAK_FLOOR
+    for name, floor in AUDIO_PEAK_FLOORS.items():
+        assert audio_peak_floor(name) == floor > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("localizer", ["dprtf-eg", "dprtf-eg-fast"])
+def test_track_scene_persons_on_either_localizers_maps(localizer):
+    """The person walking out of the image keeps one identity and is tracked out of view on
+    the heat maps of either DPRTF-EG localizer; the talker never seen is found."""
+    from avtrack.av.persons_scene import track_scene_persons
+    from avtrack.io.doa import read_doa_csv
+    from avtrack.io.scene import load_scene
+    from tests.av.scenes import out_of_image
+
+    scene_dir = out_of_image()
+    res = track_scene_persons(load_scene(scene_dir), localizer=localizer)
+    assert len(np.unique(res.tracks.ids)) == 1
+    p = res.persons
+    mine = p.ids == res.tracks.ids[0]
+    away = mine & ((p.frames - 1) / p.fps >= 6.0) & ((p.frames - 1) / p.fps <= 10.0)
+    assert away.sum() > 90 and not p.in_view[away].any()
+    truth = read_doa_csv(scene_dir / "gt" / "doa.csv")
+    sel = (truth.ids == 1) & (truth.time_s > 6) & (truth.time_s < 10)
+    assert abs(np.median(p.azimuth_deg[away]) - np.median(truth.azimuth_deg[sel])) < 10.0
+    hidden = {int(i) for i in np.unique(p.ids[~mine & (np.abs(p.azimuth_deg + 75.0) < 12.0)])}
+    assert len(hidden) >= 1
+    assert {s.speaker for s in res.speech} >= {f"P{int(res.tracks.ids[0])}"}
+    assert any(s.speaker in {f"P{i}" for i in hidden} for s in res.speech)
 
 
 def test_track_persons_labels_boxes_with_person_ids_and_writes_csv():

@@ -32,8 +32,25 @@ from avtrack.localize.grid import DirectionGrid
 from avtrack.metrics.mot import box_iou
 from avtrack.visual.ovbt import OVBTConfig, track_mot
 
+#: Localizer whose heat maps the persons pipeline reads by default (``track-av``'s direction
+#: model, ``avtrack demo``, :func:`track_scene_persons`); see :data:`AUDIO_PEAK_FLOORS`.
+PERSONS_LOCALIZER = "dprtf-eg"
+
 #: Peaks of a frame-mean DP-RTF + EG heat map below this weight are not observations.
 AUDIO_PEAK_FLOOR = 0.05
+
+#: Peak floor of :func:`audio_peaks` per localizer whose maps differ from ``dprtf-eg``'s
+#: (others: :data:`AUDIO_PEAK_FLOOR`). ``dprtf-eg-fast`` peaks are lower and wider (as the DOA
+#: trackers' :data:`avtrack.doa.base.MAP_READINGS`): 0.035, chosen on development seeds 10-21
+#: of the walkout and meeting scenes (0.03-0.04 within 1 DER point; 0.02 floods the binaural
+#: meeting maps, whose uniform weight is 1/37). See BENCHMARKS.md (issue 18, fast maps).
+AUDIO_PEAK_FLOORS: dict[str, float] = {"dprtf-eg-fast": 0.035}
+
+
+def audio_peak_floor(localizer: str | None) -> float:
+    """The :func:`audio_peaks` floor for the heat maps of ``localizer`` (None: ``dprtf-eg``)."""
+    return AUDIO_PEAK_FLOORS.get(localizer or "", AUDIO_PEAK_FLOOR)
+
 
 @dataclass(frozen=True)
 class PersonsResult:
@@ -266,13 +283,16 @@ def scene_geometry(scene) -> CameraGeometry:
     return CameraGeometry.from_scenario(scene.scenario, cam)
 
 
-def localize_scene(scene, array: MicArray, n_frames: int) -> tuple[list[np.ndarray], float]:
-    """Audio peaks of a scene's recording per video frame, and the localizer grid's azimuth
-    span in degrees."""
+def localize_scene(
+    scene, array: MicArray, n_frames: int, localizer: str = PERSONS_LOCALIZER
+) -> tuple[list[np.ndarray], float]:
+    """Audio peaks of a scene's recording per video frame (heat maps of the registered
+    ``localizer``, peaks at or above :func:`audio_peak_floor`), and the localizer grid's
+    azimuth span in degrees."""
     from avtrack.localize import make_localizer
 
     grid = localizer_grid(array)
-    loc = make_localizer("dprtf-eg", array, grid)
+    loc = make_localizer(localizer, array, grid)
     audio = scene.audio
     if scene.fs != loc.fs:  # as `avtrack localize` does: resample to the STFT's 16 kHz
         from fractions import Fraction
@@ -283,7 +303,9 @@ def localize_scene(scene, array: MicArray, n_frames: int) -> tuple[list[np.ndarr
         audio = scipy.signal.resample_poly(audio, ratio.numerator, ratio.denominator, axis=1)
     heat = loc.run(audio)
     span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
-    return audio_peaks(heat.weights, heat.time_s, grid, scene.fps, n_frames), span
+    peaks = audio_peaks(heat.weights, heat.time_s, grid, scene.fps, n_frames,
+                        floor=audio_peak_floor(localizer))
+    return peaks, span
 
 
 def track_scene_persons(
@@ -295,10 +317,12 @@ def track_scene_persons(
     visual_config: OVBTConfig | None = None,
     peaks: list[np.ndarray] | None = None,
     span: float = 360.0,
+    localizer: str = PERSONS_LOCALIZER,
 ) -> PersonsResult:
     """:func:`track_persons` on a loaded scene directory
     (:func:`avtrack.io.scene.load_scene`); ``peaks`` reuses audio peaks computed before
-    (with their grid ``span``)."""
+    (with their grid ``span``), else the heat maps of ``localizer`` give them
+    (:func:`localize_scene`)."""
     from avtrack.audio.arrays import load_array
     from avtrack.av.vavit import fov_strip, restrict_fov
 
@@ -315,7 +339,7 @@ def track_scene_persons(
                 f"audio has {scene.audio.shape[0]} channels, array.json has {array.n_mics} "
                 f"microphones", scene.path / "audio.wav",
             )
-        peaks, span = localize_scene(scene, array, scene.n_frames)
+        peaks, span = localize_scene(scene, array, scene.n_frames, localizer)
     t_loc = time.perf_counter() - t0
     res = track_persons(
         dets, app, peaks if use_audio else None, geometry, scene.fps, scene.n_frames,

@@ -52,13 +52,15 @@ def _progress(step: int, quiet: bool) -> float:
 def run_av(args: argparse.Namespace) -> int:
     from avtrack.audio.arrays import load_array
     from avtrack.av.persons_scene import (
+        PERSONS_LOCALIZER,
+        audio_peak_floor,
         audio_peaks,
         localizer_grid,
         scene_geometry,
         track_scene_persons,
     )
     from avtrack.cli.localize import localize_signal
-    from avtrack.doa.base import DEFAULT_OBSERVATIONS, heatmap_sequence, make_tracker
+    from avtrack.doa.base import heatmap_sequence, make_tracker, map_reading
     from avtrack.io.doa import read_doa_csv
     from avtrack.io.mot import read_mot, write_mot
     from avtrack.io.rttm import read_rttm, write_rttm
@@ -87,9 +89,10 @@ def run_av(args: argparse.Namespace) -> int:
     inputs = load_scene(scene_dir)
     array = load_array(scene_dir / "array.json")
     grid = localizer_grid(array)
-    loc = make_localizer("dprtf-eg", array, grid)
+    loc = make_localizer(PERSONS_LOCALIZER, array, grid)
     heat = localize_signal(loc, scene.audio, None, args.quiet)
-    peaks = audio_peaks(heat.weights, heat.time_s, grid, inputs.fps, inputs.n_frames)
+    peaks = audio_peaks(heat.weights, heat.time_s, grid, inputs.fps, inputs.n_frames,
+                        floor=audio_peak_floor(PERSONS_LOCALIZER))
     span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
 
     _progress(2, args.quiet)
@@ -103,11 +106,12 @@ def run_av(args: argparse.Namespace) -> int:
 
     _progress(3, args.quiet)
     doa = peak_table(heat, loc.grid, loc.default_threshold)
+    reading = map_reading("vonmises", PERSONS_LOCALIZER)  # that localizer's maps
     seq = heatmap_sequence(heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, 4,
-                           DEFAULT_OBSERVATIONS["vonmises"])  # fmt: skip
-    doa_tracks = make_tracker("vonmises", frame_period_s=4 * loc.stft_config.frame_period_s).run(
-        seq
-    )
+                           reading.observations, uniform_floor=reading.uniform_floor)  # fmt: skip
+    doa_tracks = make_tracker(
+        "vonmises", reading.config, frame_period_s=4 * loc.stft_config.frame_period_s
+    ).run(seq)
 
     _progress(4, args.quiet)
     gt = read_mot(scene_dir / "gt" / "gt.txt", "gt")

@@ -381,7 +381,13 @@ def run_recording(args: argparse.Namespace) -> int:
     from avtrack.audio.arrays import load_array
     from avtrack.audio.recording import read_array_audio
     from avtrack.av.geometry import CameraGeometry
-    from avtrack.av.persons_scene import audio_peaks, localizer_grid, track_persons
+    from avtrack.av.persons_scene import (
+        PERSONS_LOCALIZER,
+        audio_peak_floor,
+        audio_peaks,
+        localizer_grid,
+        track_persons,
+    )
     from avtrack.io.mot import read_mot
 
     if args.model != "direction":
@@ -473,10 +479,11 @@ def run_recording(args: argparse.Namespace) -> int:
 
             assert audio is not None  # (read above: no --doa needs --audio without --no-audio)
             grid = localizer_grid(array)
-            loc = make_localizer("dprtf-eg", array, grid)
+            loc = make_localizer(PERSONS_LOCALIZER, array, grid)
             with progress.activity(f"localizing {audio.shape[1] / 16000:.1f} s", args.quiet):
                 heat = loc.run(audio)
-            peaks = audio_peaks(heat.weights, heat.time_s, grid, fps, n_frames)
+            peaks = audio_peaks(heat.weights, heat.time_s, grid, fps, n_frames,
+                                floor=audio_peak_floor(PERSONS_LOCALIZER))
             span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
     vcfg = config.visual
     if args.appearance is None and appearance is not None and vcfg.appearance != "bhattacharyya":
