@@ -4,12 +4,15 @@ the nao4 array in a 6 x 5 x 3 m room, T60 = 0.3 s, weak sensor noise."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 import scipy.signal
 
 from avtrack.audio.arrays import builtin_array
 from avtrack.doa.base import heatmap_sequence, make_tracker, map_reading
+from avtrack.io.doa import wrap_azimuth
 from avtrack.localize import DirectionGrid, make_localizer
 from avtrack.localize.cgmm_eg import FastEGConfig
 from avtrack.metrics.doa import angular_error
@@ -112,3 +115,32 @@ def test_a_talker_walking_at_30_deg_per_s_is_followed_within_5_deg(walking_talke
     err = np.array(err)
     assert np.mean(err <= 5.0) >= 0.9, (np.mean(err <= 5.0), np.median(err))
     assert np.mean(err[err <= 15.0]) <= 5.0
+
+
+@pytest.fixture(scope="module")
+def walking_map(walking_talker):
+    y, _ = walking_talker
+    grid = DirectionGrid.azimuths()
+    return grid, make_localizer(METHOD, builtin_array("nao4"), grid).run(y)
+
+
+@pytest.mark.parametrize("tracker", ["gauss", "vonmises"])
+def test_the_lead_compensates_the_maps_delay_on_a_walking_talker(walking_map, tracker):
+    """The map's peak trails a talker walking at 30°/s by about 0.1 s (3°); the default
+    reading reports the direction predicted ``lead_s`` ahead, which cuts that bias."""
+    grid, h = walking_map
+    reading = map_reading(tracker, METHOD)
+    assert reading.config.lead_s == pytest.approx(0.2)
+    seq = heatmap_sequence(
+        h.weights, grid.azimuth_deg, h.frames, h.time_s, STEP, reading.observations,
+        uniform_floor=reading.uniform_floor,
+    )
+    bias = {}
+    for lead in (0.0, reading.config.lead_s):
+        cfg = dataclasses.replace(reading.config, lead_s=lead)
+        tracks = make_tracker(tracker, cfg).run(seq)
+        sel = tracks.active & (tracks.time_s >= 1.0)
+        trail = wrap_azimuth(-60.0 + 30.0 * tracks.time_s[sel] - tracks.azimuth_deg[sel])
+        bias[lead] = float(np.mean(trail[np.abs(trail) < 15.0]))  # > 0: the estimate trails
+    assert bias[0.0] > 2.0
+    assert abs(bias[reading.config.lead_s]) < 0.8 * bias[0.0]

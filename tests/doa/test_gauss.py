@@ -24,6 +24,7 @@ from avtrack.doa.gauss import (
     GaussDOATracker,
     birth_log_ratio,
     direction_transition,
+    lead_gain,
     normalize_direction,
 )
 from avtrack.doa.model import WeightedDirectionModel, WeightedDirections
@@ -257,6 +258,43 @@ def test_step_and_config_validation():
         GaussConfig(velocity_decay=1.5)
     with pytest.raises(ValueError, match="unknown field"):
         build_config(GaussConfig, {"sigma": 1.0})
+
+
+def test_lead_gain_is_eq_5_27_iterated():
+    # two frames of 32 ms with velocity decay 0.98: the direction moves v·Δt (1 + 0.98)
+    assert lead_gain(0.032, 0.98, 0.064) == pytest.approx(0.032 * 1.98)
+    assert lead_gain(0.032, 1.0, 0.2) == 0.2  # constant velocity: v · lead
+    assert lead_gain(0.032, 0.5, 0.0) == 0.0
+    # many frames: the geometric sum tends to Δt / (1 − a)
+    assert lead_gain(0.032, 0.5, 100.0) == pytest.approx(0.064)
+    # Δt of the recursion applied n = lead / Δt times, checked against the transition matrix
+    mu = np.array([[1.0, 0.0, 0.7]])
+    state = mu.copy()
+    for _ in range(5):
+        state = normalize_direction((direction_transition(state, 0.032, 0.9)[0] @ state[0])[None])
+    # the linearised step is a tangent move; for small angles it matches the rotation
+    assert np.arctan2(state[0, 1], state[0, 0]) == pytest.approx(
+        0.7 * lead_gain(0.032, 0.9, 0.16), rel=2e-3
+    )
+
+
+def test_lead_reports_the_predicted_direction_and_changes_nothing_else():
+    az = moving(-60.0, 20.0)[:, None]
+    seq, _ = scene(az, np.ones(az.shape, bool))
+    cfg = GaussConfig(velocity_decay=0.95)
+    plain = GaussDOATracker(cfg)
+    ahead = GaussDOATracker(GaussConfig(velocity_decay=0.95, lead_s=0.3))
+    gain = lead_gain(FRAME_PERIOD_S, 0.95, 0.3)
+    for a, w in zip(seq.azimuth_deg, seq.weight, strict=True):
+        p, q = plain.step(a, w), ahead.step(a, w)
+        np.testing.assert_array_equal(p.ids, q.ids)
+        np.testing.assert_array_equal(p.active, q.active)
+        np.testing.assert_allclose(ahead.engine.mu, plain.engine.mu)
+        shift = wrap_azimuth(q.azimuth_deg - p.azimuth_deg)
+        np.testing.assert_allclose(shift, np.rad2deg(gain * plain.engine.mu[:, 2]), atol=1e-9)
+    for bad in (-1.0, np.nan, True):
+        with pytest.raises(ValueError, match=r"GaussConfig\.lead_s"):
+            GaussConfig(lead_s=bad)
 
 
 def test_stonesoup_gmphd_peer_tracks_a_source():

@@ -327,10 +327,33 @@ def test_velocity_removes_the_lag_on_a_moving_source():
     assert abs(bias[0.3]) < 0.3 * bias[0.0]
 
 
-def test_fast_map_settings_lower_the_peak_floor_and_the_birth_floor_only():
+def test_lead_reports_the_constant_velocity_prediction_and_changes_nothing_else():
+    """``lead_s`` only shifts the reported direction by ν·lead_s (the constant-velocity
+    prediction); the filter's state, identities and activity are those of ``lead_s = 0``."""
+    az = moving(-80.0, 40.0, 200)[:, None]
+    seq, _ = scene(az, np.ones(az.shape, bool), seed=4)
+    plain = VonMisesDOATracker(VonMisesConfig())
+    ahead = VonMisesDOATracker(VonMisesConfig(lead_s=0.25))
+    for a, w in zip(seq.azimuth_deg, seq.weight, strict=True):
+        p, q = plain.step(a, w), ahead.step(a, w)
+        np.testing.assert_array_equal(p.ids, q.ids)
+        np.testing.assert_array_equal(p.active, q.active)
+        np.testing.assert_allclose(ahead.mu, plain.mu)
+        np.testing.assert_allclose(ahead.nu, plain.nu)
+        shift = wrap_azimuth(q.azimuth_deg - p.azimuth_deg)
+        np.testing.assert_allclose(shift, np.rad2deg(0.25 * plain.nu), atol=1e-9)
+    # at 40°/s the velocity is learned, so the lead is 0.25 s × ~40°/s ≈ 10° ahead
+    assert np.rad2deg(0.25 * plain.nu).mean() == pytest.approx(10.0, abs=2.0)
+    for bad in (-0.1, np.inf, True):
+        with pytest.raises(ValueError, match=r"VonMisesConfig\.lead_s"):
+            VonMisesConfig(lead_s=bad)
+
+
+def test_fast_map_settings_lower_the_peak_floor_and_the_birth_floor_and_lead():
     # dprtf-eg-fast maps have lower, wider peaks: the option observes the peaks over 1.15/D
-    # (not 1.44/D) and lets DOAs down to 0.03 (not 0.05) start a source; nothing else changes
-    assert FAST_MAP_CONFIG == dataclasses.replace(VonMisesConfig(), birth_floor=0.03)
+    # (not 1.44/D) and lets DOAs down to 0.03 (not 0.05) start a source; the reported direction
+    # is the one predicted 0.2 s ahead (the map's delay); nothing else changes
+    assert FAST_MAP_CONFIG == dataclasses.replace(VonMisesConfig(), birth_floor=0.03, lead_s=0.2)
     w = np.array([[0.1, 0.32, 0.1, 0.28]])  # peaks 0.32 and 0.28; 1.15/4 = 0.2875, 1.44/4 = 0.36
     az = np.array([-90.0, 0.0, 90.0, 180.0])
     default = heatmap_sequence(w, az, step=1, observations="peaks-over-uniform")

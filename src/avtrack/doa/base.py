@@ -51,6 +51,13 @@ def check_config_fields(
             raise ValueError(f"{owner}.{name} must be an integer >= 1, got {v!r}")
 
 
+def check_lead(config: Any) -> None:
+    """Validate a tracker config's ``lead_s`` (a finite number of seconds >= 0)."""
+    v = config.lead_s
+    if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v) and v >= 0):
+        raise ValueError(f"{type(config).__name__}.lead_s must be a number >= 0, got {v!r}")
+
+
 TRACKERS: Registry[type[DOATracker]] = Registry("DOA tracker")
 """Registered DOA tracker classes by name (``"gauss"``, ``"vonmises"``); the package
 :mod:`avtrack.doa` imports every built-in tracker, so it is complete once ``avtrack.doa`` is
@@ -93,6 +100,14 @@ UNIFORM_PEAK_FLOOR = 1.44
 #: trackers on ``dprtf-eg-fast`` maps).
 FAST_MAP_UNIFORM_PEAK_FLOOR = 1.15
 
+#: Seconds ahead that trackers report on ``dprtf-eg-fast`` maps (``lead_s`` of both Configs):
+#: the map's peaks trail a moving talker by 14-20 frames of 8 ms (its median lag on benchmark
+#: seeds 0-4, LOCATA-like / Kinovis-like) and the trackers by 8-28; reporting the direction
+#: their dynamics predict 0.2 s ahead brings the trackers' median lag to 4-10 frames on
+#: development seeds 10-15 of both kinds, the value chosen there. BENCHMARKS.md, issue 23,
+#: "latency compensation".
+FAST_MAP_LEAD_S = 0.2
+
 
 @dataclass(frozen=True)
 class MapReading:
@@ -122,9 +137,16 @@ class MapReading:
 #: (0.0006), keeps more of its angular velocity from frame to frame (0.98) and a lower activity
 #: threshold δ (0.02, for the peaks' lower weights). Tuned on development seeds 10-15 of both
 #: scene kinds and checked on benchmark seeds 0-4 (BENCHMARKS.md, issue 23, fifth session).
+#: Both report the direction predicted :data:`FAST_MAP_LEAD_S` ahead by the track's angular
+#: velocity (``lead_s``), which compensates the map's own delay (sixth session).
 FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
-    "gauss": {"obs_var": 0.0006, "velocity_decay": 0.98, "activity_threshold": 0.02},
-    "vonmises": {"birth_floor": 0.03},
+    "gauss": {
+        "obs_var": 0.0006,
+        "velocity_decay": 0.98,
+        "activity_threshold": 0.02,
+        "lead_s": FAST_MAP_LEAD_S,
+    },
+    "vonmises": {"birth_floor": 0.03, "lead_s": FAST_MAP_LEAD_S},
 }
 
 #: ``{method: ("peaks-over-uniform" floor, {tracker: Config overrides})}``

@@ -62,6 +62,7 @@ from avtrack.doa.base import (
     SpeakerActivity,
     TrackFrame,
     check_config_fields,
+    check_lead,
     register_tracker,
 )
 from avtrack.doa.model import (
@@ -100,6 +101,7 @@ class GaussConfig:
     merge_deg: float = 8.0  #: a track this close to an older one ...
     merge_s: float = 0.2  #: ... for this long is deleted (a duplicate), seconds
     merge_velocity_deg_s: float = 10.0  #: ... if their angular velocities differ less, °/s
+    lead_s: float = 0.0  #: report the direction eq. 5.27 predicts this far ahead, s (0: thesis)
 
     def __post_init__(self) -> None:
         check_config_fields(
@@ -124,6 +126,7 @@ class GaussConfig:
             ),
             counts=("n_iter", "birth_frames", "activity_frames"),
         )
+        check_lead(self)
         if not (isinstance(self.velocity_decay, int | float) and 0 < self.velocity_decay <= 1):
             raise ValueError(
                 f"GaussConfig.velocity_decay must be in (0, 1], got {self.velocity_decay!r}"
@@ -148,6 +151,21 @@ def direction_transition(mu: np.ndarray, dt: float, decay: float = 1.0) -> np.nd
     tr[:, 0, 2] = -u[:, 1] * dt  # -sin θ Δt
     tr[:, 1, 2] = u[:, 0] * dt  # cos θ Δt
     return tr
+
+
+def lead_gain(dt: float, decay: float, lead_s: float) -> float:
+    r"""Seconds of angular velocity in the direction predicted ``lead_s`` ahead.
+
+    Eq. 5.27 applied ``n = lead_s / Δt`` times moves the direction by
+    :math:`v\,\Delta t\,(1 + a + \dots + a^{n-1}) = v\,\Delta t\,(1 - a^n) / (1 - a)` (``a`` the
+    velocity decay ``D[2, 2]``; ``lead_s`` itself when ``a = 1``), taken for real ``n``.
+    """
+    if lead_s == 0.0:
+        return 0.0
+    if decay == 1.0:
+        return float(lead_s)
+    n = lead_s / dt
+    return float(dt * (1.0 - decay**n) / (1.0 - decay))
 
 
 def normalize_direction(mu: np.ndarray) -> np.ndarray:
@@ -269,6 +287,7 @@ class GaussDOATracker(DOATracker):
         self._merge_vel = np.deg2rad(cfg.merge_velocity_deg_s)
         self._cos_birth = np.cos(np.deg2rad(cfg.birth_min_separation_deg))
         self._dir_cache: tuple[np.ndarray, np.ndarray] | None = None
+        self._lead = lead_gain(self.frame_period_s, cfg.velocity_decay, cfg.lead_s)
 
     @property
     def n_tracks(self) -> int:
@@ -333,7 +352,10 @@ class GaussDOATracker(DOATracker):
             score = np.concatenate([score, [born]])
             active = np.concatenate([active, [born > self.activity.threshold]])
         u = eng.mu[:, :2]
-        return TrackFrame(eng.ids.copy(), np.rad2deg(np.arctan2(u[:, 1], u[:, 0])), active, score)
+        theta = np.arctan2(u[:, 1], u[:, 0])
+        if self._lead:  # latency compensation: the direction predicted lead_s ahead
+            theta = theta + self._lead * eng.mu[:, 2]
+        return TrackFrame(eng.ids.copy(), np.rad2deg(theta), active, score)
 
     def _directions(self, azimuth_rad: np.ndarray) -> np.ndarray:
         """Unit vectors ``(M, 2)`` of the azimuths, reused while the (read-only) candidate

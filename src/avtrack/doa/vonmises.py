@@ -67,10 +67,12 @@ import numpy as np
 from scipy.special import i0e, i1e
 
 from avtrack.doa.base import (
+    FAST_MAP_LEAD_S,
     DOATracker,
     SpeakerActivity,
     TrackFrame,
     check_config_fields,
+    check_lead,
     register_tracker,
 )
 from avtrack.vem.updates import e_z_step, exclusive_projection, m_step_priors
@@ -210,6 +212,7 @@ class VonMisesConfig:
     velocity_std: float = 0.05  #: std of the angular velocity's change per frame, rad/s
     birth_velocity_std: float = 0.5  #: prior std of the angular velocity at birth, rad/s
     silent_velocity_decay: float = 0.8  #: the velocity is multiplied by this per silent frame
+    lead_s: float = 0.0  #: report the direction predicted this far ahead, s (0: thesis)
 
     def __post_init__(self) -> None:
         check_config_fields(
@@ -240,6 +243,7 @@ class VonMisesConfig:
                 f"VonMisesConfig.velocity_std must be a finite number >= 0, "
                 f"got {self.velocity_std!r}"
             )
+        check_lead(self)
         d = self.silent_velocity_decay
         if isinstance(d, bool) or not (isinstance(d, int | float) and 0 <= d <= 1):
             raise ValueError(f"VonMisesConfig.silent_velocity_decay must be in [0, 1], got {d!r}")
@@ -260,12 +264,13 @@ class VonMisesConfig:
 
 
 #: Settings for ``dprtf-eg-fast`` heat maps (an option; the defaults are tuned on ``dprtf-eg``):
-#: DOAs down to 0.03 may start a source, to be used with observations
+#: DOAs down to 0.03 may start a source, and the direction predicted ``FAST_MAP_LEAD_S`` (0.2 s)
+#: ahead is reported; to be used with observations
 #: ``heatmap_sequence(..., "peaks-over-uniform", uniform_floor=FAST_MAP_UNIFORM_PEAK_FLOOR)``
 #: (:data:`avtrack.doa.base.FAST_MAP_UNIFORM_PEAK_FLOOR`). Tuned on development seeds 10-15;
 #: meets issue 23's tracker targets on LOCATA-like scenes, not on Kinovis-like ones (see
 #: BENCHMARKS.md, issue 23, trackers on ``dprtf-eg-fast`` maps).
-FAST_MAP_CONFIG = VonMisesConfig(birth_floor=0.03)
+FAST_MAP_CONFIG = VonMisesConfig(birth_floor=0.03, lead_s=FAST_MAP_LEAD_S)
 
 
 @register_tracker("vonmises")
@@ -423,7 +428,10 @@ class VonMisesDOATracker(DOATracker):
         if born:
             score = np.concatenate([score, [born]])
             active = np.concatenate([active, [born > self.activity.threshold]])
-        return TrackFrame(self.ids.copy(), np.rad2deg(self.mu), active, score)
+        theta = self.mu
+        if cfg.lead_s:  # latency compensation: the constant-velocity prediction lead_s ahead
+            theta = theta + cfg.lead_s * self.nu
+        return TrackFrame(self.ids.copy(), np.rad2deg(theta), active, score)
 
     def _birth(self) -> float:
         """Try a birth from the pooled DOAs; returns the new track's activity statistic
