@@ -196,3 +196,56 @@ def test_a_hole_under_the_head_top_still_bounds_the_head_by_its_width():
     assert not mask_row[70]  # the hole is there at the row the width is measured on
     _, top, _, h = boxes[0]
     assert top + det.mouth_offset * h == pytest.approx(30 + 0.69 * 24, abs=4)  # 40: 57.6
+
+
+SKIN = (120, 150, 200)  # BGR; YCrCb Cr 155, Cb 105: passes the skin rule
+
+
+def test_the_neck_below_a_head_smaller_than_the_geometry_says_is_not_its_face():
+    """The back of a head 28 px tall where the geometry expects 48, the neck's skin below
+    it: a head box sized by the geometry holds the neck and puts the mouth on it, 20 px
+    low; sized by the head's measured width it holds no face, and the mouth is 0.69 of the
+    measured head below the top."""
+    det = ForegroundHeadDetector(48.0)
+    learnt(det)
+    img = background()
+    person(img, 70, 20, 28)
+    img[49:67, 64:77] = SKIN  # the neck, under the head
+    boxes, _ = det.detect(img)
+    assert len(boxes) == 1
+    _, top, _, h = boxes[0]
+    assert top + det.mouth_offset * h == pytest.approx(20 + 0.69 * 28, abs=4)
+    assert det.head_size(det.heads(det._solid))[0] < 36
+
+
+def test_a_speck_of_foreground_with_nothing_below_it_is_not_a_head():
+    det = ForegroundHeadDetector(20.0)
+    learnt(det)
+    img = background()
+    person(img, 50, 40, 20)
+    img[20:28, 120:128] = (40, 60, 160)  # a reflection on the wall: no body under it
+    boxes, _ = det.detect(img)
+    assert len(boxes) == 1 and boxes[0, 0] + boxes[0, 2] / 2 == pytest.approx(50, abs=2)
+    det = ForegroundHeadDetector(20.0, min_fill=0.0)
+    learnt(det)
+    assert len(det.detect(img)[0]) == 2  # without the rule the speck is a head
+
+
+def test_a_ghost_where_a_person_stood_is_not_a_head_but_a_moving_person_is():
+    """A person stands until the background model has learnt them, then leaves: the place
+    they stood stays foreground (a ghost) but does not move, while a person walking by
+    does."""
+    def run(det):
+        for _ in range(40):
+            img = background()
+            person(img, 40, 30, 20)
+            det.detect(img)
+        for k in range(8):  # the first person has left; a second walks in at the right
+            img = background()
+            person(img, 110 + 2 * k, 35, 20, colour=(160, 60, 40))
+            boxes, _ = det.detect(img)
+        return boxes
+    boxes = run(ForegroundHeadDetector(20.0))
+    assert len(boxes) == 1 and boxes[0, 0] + boxes[0, 2] / 2 == pytest.approx(124, abs=3)
+    boxes = run(ForegroundHeadDetector(20.0, min_motion=0.0))
+    assert len(boxes) == 2  # without the rule the ghost is a head

@@ -27,20 +27,31 @@ whose highest part is the head. The detector
    plane of mouths, :meth:`avtrack.av.av163.AV163View.head_height_map`); the mouth lies
    ``mouth_fraction`` of a head height below the head top (vertex to stomion is about 0.69 of
    vertex to menton in adult anthropometric tables), solved as a fixed point because the
-   head's size depends on where its mouth is;
-5. **the face, where visible**: skin pixels inside the head box (one head wide and tall from
-   the head top; the YCrCb skin rule of Chai and Ngan, "Face segmentation using skin-colour
-   map in videophone applications", IEEE TCSVT 1999: 133 <= Cr <= 173, 77 <= Cb <= 127).
-   When at least ``min_skin`` of the box is skin, the mouth is placed at the skin's mean
-   column (a face in profile is off the head's centre) and at its ``mouth_quantile`` row
-   (the lower face); otherwise (back of the head) the geometric mouth below the head top
-   stays, with the head no taller than the foreground's width a quarter head below the
-   top over ``head_aspect`` says (a seated person's mouth lies below the mouth plane, which
-   the geometry reads as a nearer, bigger head). Where the head-top column is not
-   foreground at that row (a person standing still fades into the background model from
-   the inside, leaving holes), the width is the foreground's extent there within half a
-   head height either side of the column;
-6. **identity evidence** (optional): the Bhattacharyya coefficient of the hue-saturation
+   head's size depends on where its mouth is. The geometry is an upper bound: the head is
+   no taller than the widest foreground run through the head-top column within
+   ``width_rows`` head heights below the top, over ``head_aspect`` (head breadth over
+   height), and no smaller than ``min_size`` of the geometry's head. A seated person's mouth
+   lies below the mouth plane, which the geometry reads as a nearer, bigger head; the
+   widest run rather than the width at one row, because a person who stands still fades
+   into the background model from the inside and leaves holes under the head top;
+5. **the face, where visible**: skin pixels inside the head box (one measured head wide and
+   tall from the head top; the YCrCb skin rule of Chai and Ngan, "Face segmentation using
+   skin-colour map in videophone applications", IEEE TCSVT 1999: 133 <= Cr <= 173,
+   77 <= Cb <= 127). When at least ``min_skin`` of the box is skin, the mouth is placed at
+   the skin's mean column (a face in profile is off the head's centre) and at its
+   ``mouth_quantile`` row (the lower face); otherwise (back of the head) the mouth lies
+   ``mouth_fraction`` of the measured head below the head top. Sizing the box by the
+   measured head keeps a hand at the ear, the neck and the shoulder of a head smaller than
+   the geometry's out of the skin that places the mouth;
+6. **no head without a body or motion**: a head top without a visible face needs at least
+   ``min_fill`` of the lower half of its head box to be foreground (a speck of foreground,
+   such as a reflection in a picture's glass or flicker on a high-contrast edge, is not a
+   head), and every head needs at least ``min_motion`` of the foreground in its head box to
+   have changed (grey level by more than 12) over the last ``motion_lag`` frames: a "ghost",
+   the place a person stood long enough to be absorbed into the background model and then
+   left, is foreground that does not move (Cucchiara, Grana, Piccardi and Prati, "Detecting
+   moving objects, ghosts, and shadows in video streams", IEEE PAMI 2003);
+7. **identity evidence** (optional): the Bhattacharyya coefficient of the hue-saturation
    histogram of the head box (one head wide, 1.3 high from the top: head and neck) with the
    best-matching colour template scores each head; heads below ``min_similarity`` are dropped.
 
@@ -53,8 +64,10 @@ The detector keeps the background model between calls: give it the frames of one
 order (``reset()`` before another video). People taller or shorter than the mouth plane
 assumes and heads leaving the top of the image get biased mouth points when no face is
 visible (the head top is still found; its offset to the mouth is off by the size error, which
-the width bound only limits from above); two people whose heads touch in the image give one
-head; a moving object that is not a person gives a head when its colours pass the templates.
+the width bound only limits from above: a head bigger than the geometry's keeps the
+geometry's size, and its face box ends above its chin); two people whose heads touch in the
+image give one head; a moving object that is not a person gives a head when its colours pass
+the templates; a person who stays perfectly still for ``motion_lag`` frames is dropped.
 """
 
 from __future__ import annotations
@@ -81,14 +94,6 @@ def _run_width(row: np.ndarray, x: int) -> int:
     return a + b - 1
 
 
-def _extent(row: np.ndarray, x: int, reach: float) -> int:
-    """Columns from the first to the last True of ``row`` within ``reach`` of column ``x``
-    (0 when there is none)."""
-    a, b = int(max(x - reach, 0)), int(min(x + reach + 1, len(row)))
-    cols = np.flatnonzero(row[a:b])
-    return int(cols[-1] - cols[0] + 1) if len(cols) else 0
-
-
 class ForegroundHeadDetector:
     """Heads as the peaks of the foreground's upper contour (see the module docstring).
 
@@ -111,9 +116,13 @@ class ForegroundHeadDetector:
     min_head : float
         Heads smaller than this many pixels tall are not looked for (noise).
     head_aspect : float
-        Head breadth over head height: where no face places the mouth, the head is no
-        taller than the foreground's width a quarter head below its top divided by this (0:
-        the geometry alone).
+        Head breadth over head height: the head is no taller than the widest foreground run
+        through its top's column within ``width_rows`` head heights below the top divided
+        by this (0: the geometry alone).
+    width_rows : float
+        Rows searched for the head's width, in head heights below its top.
+    min_size : float
+        The measured head is no smaller than this fraction of the geometry's.
     border : float
         Head-top plateaus that reach the image's left or right edge, or come within this
         many head heights of it, are dropped: a blob cut by the edge peaks at the edge,
@@ -125,6 +134,14 @@ class ForegroundHeadDetector:
         never).
     mouth_quantile : float
         The mouth's row within the face's skin pixels (a quantile, from the top).
+    min_fill : float
+        Fraction of the lower half of a faceless head's box that must be foreground (0: no
+        check).
+    min_motion : float
+        Fraction of the foreground in a head's box that must have changed over the last
+        ``motion_lag`` frames (0: no check).
+    motion_lag : int
+        Frames back that motion is measured against.
     """
 
     def __init__(
@@ -141,6 +158,11 @@ class ForegroundHeadDetector:
         gain: bool = True,
         min_skin: float = 0.05,
         mouth_quantile: float = 0.85,
+        width_rows: float = 0.5,
+        min_size: float = 0.5,
+        min_fill: float = 0.05,
+        min_motion: float = 0.05,
+        motion_lag: int = 4,
     ) -> None:
         hh = np.asarray(head_height, dtype=float)
         if hh.ndim not in (0, 2) or not np.all(np.isfinite(hh)) or np.any(hh <= 0):
@@ -169,6 +191,15 @@ class ForegroundHeadDetector:
             raise ValueError("min_skin must be >= 0 and mouth_quantile in [0, 1]")
         self.min_skin = float(min_skin)
         self.mouth_quantile = float(mouth_quantile)
+        if width_rows <= 0 or not 0 < min_size <= 1:
+            raise ValueError("width_rows must be positive and min_size in (0, 1]")
+        self.width_rows = float(width_rows)
+        self.min_size = float(min_size)
+        if not 0 <= min_fill <= 1 or not 0 <= min_motion <= 1 or int(motion_lag) < 1:
+            raise ValueError("min_fill and min_motion must lie in [0, 1], motion_lag >= 1")
+        self.min_fill = float(min_fill)
+        self.min_motion = float(min_motion)
+        self.motion_lag = int(motion_lag)
         self.reset()
 
     def reset(self) -> None:
@@ -179,6 +210,7 @@ class ForegroundHeadDetector:
                                                        detectShadows=True)
         self._background: np.ndarray | None = None
         self._mask: np.ndarray | None = None
+        self._grey: list[np.ndarray] = []  # the last motion_lag + 1 frames, grey
 
     # ------------------------------------------------------------------ foreground
     def _compensate(self, frame: np.ndarray) -> np.ndarray:
@@ -262,6 +294,23 @@ class ForegroundHeadDetector:
         kept.sort(key=lambda i: xc[i])
         return np.column_stack([xc[kept], yt[kept], h[kept]]).astype(float).reshape(-1, 3)
 
+    def head_size(self, heads: np.ndarray) -> np.ndarray:
+        """Measured head heights (pixels) of ``heads`` (rows ``x, top, head height`` of
+        :meth:`heads`, on the last frame's foreground): the geometry's head height, no taller
+        than the widest foreground run through the head-top column within ``width_rows``
+        head heights below the top over ``head_aspect``, no smaller than ``min_size`` of
+        the geometry's."""
+        h = np.asarray(heads, dtype=float).reshape(-1, 3)[:, 2].copy()
+        if self.head_aspect <= 0:
+            return h
+        height = self._solid.shape[0]
+        for i, (x, top, hh) in enumerate(np.asarray(heads, dtype=float).reshape(-1, 3)):
+            y0, y1 = int(max(top, 0)), int(min(top + self.width_rows * hh, height))
+            widest = max((_run_width(self._solid[y], int(x)) for y in range(y0, y1)), default=0)
+            if widest > 0:
+                h[i] = float(np.clip(widest / self.head_aspect, self.min_size * hh, hh))
+        return h
+
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Head boxes ``(M, 4)`` (left, top, width, height; the mouth at ``mouth_offset`` of
         the height) and ``(M,)`` scores (best template coefficient, or 1 without templates)."""
@@ -270,18 +319,24 @@ class ForegroundHeadDetector:
             raise ValueError(f"frame must be (height, width, 3) uint8 BGR, got {img.shape} "
                              f"{img.dtype}")
         heads = self.heads(self.foreground(img))
+        if self.min_motion > 0:
+            import cv2
+
+            grey = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(np.int16)
+            self._grey = [*self._grey[-self.motion_lag:], grey]
         if len(heads) == 0:
             return np.zeros((0, 4)), np.zeros(0)
         x, top, h = heads.T
         H, W = img.shape[:2]
-        mx, my = x.copy(), top + self.mouth_offset * h
+        size = self.head_size(heads)
+        mx, my = x.copy(), top + self.mouth_offset * size
         on_face = np.zeros(len(heads), dtype=bool)
         if self.min_skin <= 1:
             import cv2
 
             for i in range(len(heads)):  # the face, where visible, places the mouth
-                x0, x1 = int(max(x[i] - 0.5 * h[i], 0)), int(min(x[i] + 0.5 * h[i], W))
-                y0, y1 = int(max(top[i], 0)), int(min(top[i] + h[i], H))
+                x0, x1 = int(max(x[i] - 0.5 * size[i], 0)), int(min(x[i] + 0.5 * size[i], W))
+                y0, y1 = int(max(top[i], 0)), int(min(top[i] + size[i], H))
                 if x1 <= x0 or y1 <= y0:
                     continue
                 ycc = cv2.cvtColor(img[y0:y1, x0:x1], cv2.COLOR_BGR2YCrCb)
@@ -292,17 +347,25 @@ class ForegroundHeadDetector:
                     mx[i] = x0 + cols.mean()
                     my[i] = y0 + np.quantile(rows, self.mouth_quantile)
                     on_face[i] = True
-        if self.head_aspect > 0:  # back of the head: no taller than it is wide says
-            for i in np.flatnonzero(~on_face).tolist():
-                y = int(min(int(top[i] + 0.25 * h[i]), H - 1))
-                wide = _run_width(self._solid[y], int(x[i]))
-                if wide == 0:  # a hole under the top: the foreground's extent there
-                    wide = _extent(self._solid[y], int(x[i]), 0.5 * h[i])
-                if wide > 0:
-                    my[i] = top[i] + self.mouth_offset * min(h[i], wide / self.head_aspect)
         boxes = np.column_stack([mx - 0.375 * h, my - self.mouth_offset * h, 0.75 * h, h])
+        ok = np.ones(len(boxes), dtype=bool)
+        for i in range(len(boxes)):
+            x0, x1 = int(max(x[i] - 0.5 * h[i], 0)), int(min(x[i] + 0.5 * h[i], W))
+            y0, y1 = int(max(top[i], 0)), int(min(top[i] + h[i], H))
+            if x1 <= x0 or y1 <= y0:
+                continue
+            if self.min_fill > 0 and not on_face[i]:  # a speck of foreground is no head
+                ym = int(min(top[i] + 0.5 * h[i], H - 1))
+                if y1 > ym and self._solid[ym:y1, x0:x1].mean() < self.min_fill:
+                    ok[i] = False
+            if self.min_motion > 0 and len(self._grey) > self.motion_lag:
+                fg = self._solid[y0:y1, x0:x1]  # a ghost is foreground that does not move
+                if fg.any():
+                    moved = np.abs(grey[y0:y1, x0:x1] - self._grey[0][y0:y1, x0:x1]) > 12
+                    if moved[fg].mean() < self.min_motion:
+                        ok[i] = False
         if self.templates is None:
-            return boxes, np.ones(len(boxes))
+            return boxes[ok], np.ones(int(ok.sum()))
         bins = hue_saturation_bins(img)
         scores = np.empty(len(boxes))
         for i in range(len(boxes)):  # head and neck: one head wide, 1.3 tall
@@ -311,5 +374,5 @@ class ForegroundHeadDetector:
             hist = np.bincount(bins[y0:y1, x0:x1].ravel(), minlength=256).astype(float)
             hist /= max(hist.sum(), 1.0)
             scores[i] = float((np.sqrt(self.templates) @ np.sqrt(hist)).max())
-        ok = scores >= self.min_similarity
+        ok &= scores >= self.min_similarity
         return boxes[ok], scores[ok]
