@@ -138,7 +138,9 @@ class MapReading:
 #: threshold δ (0.02, for the peaks' lower weights). Tuned on development seeds 10-15 of both
 #: scene kinds and checked on benchmark seeds 0-4 (BENCHMARKS.md, issue 23, fifth session).
 #: Both report the direction predicted :data:`FAST_MAP_LEAD_S` ahead by the track's angular
-#: velocity (``lead_s``), which compensates the map's own delay (sixth session).
+#: velocity (``lead_s``), which compensates the map's own delay, and the von Mises tracker
+#: lets a source be born 10° from another (as the Gaussian tracker; 20° kept a talker who
+#: reappeared near a stale track unborn) (sixth session).
 FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
     "gauss": {
         "obs_var": 0.0006,
@@ -146,7 +148,7 @@ FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
         "activity_threshold": 0.02,
         "lead_s": FAST_MAP_LEAD_S,
     },
-    "vonmises": {"birth_floor": 0.03, "lead_s": FAST_MAP_LEAD_S},
+    "vonmises": {"birth_floor": 0.03, "birth_min_separation_deg": 10.0, "lead_s": FAST_MAP_LEAD_S},
 }
 
 #: ``{method: ("peaks-over-uniform" floor, {tracker: Config overrides})}``
