@@ -365,7 +365,9 @@ def test_a_birth_relinks_the_label_whose_spread_explains_it_best():
     # face at (210, 150) from frame 200: 150 px from A's label (dropped 170 frames earlier,
     # reach 220) and 80 px from B's (dropped 50 frames earlier, reach 100). By distance /
     # reach the old label wins (0.68 against 0.80); by the likelihood of the birth under
-    # each label's spread since it was dropped (std reach / 2, normalised) B's label does
+    # each label's spread since it was dropped (std reach / 2, normalised) B's label does.
+    # The reaches are those of relabel_distance = 50 (the default until 2026-11-26, when
+    # this case was built; with the default 120 both rules take B's label here)
     rng = np.random.default_rng(5)
     a, b, z = np.array([60.0, 150.0]), np.array([290.0, 150.0]), np.array([210.0, 150.0])
     frames = []
@@ -381,11 +383,35 @@ def test_a_birth_relinks_the_label_whose_spread_explains_it_best():
                 if np.linalg.norm(x - p) < 20}
 
     for rule in ("likelihood", "reach"):
-        res = LPFSMCPHD(PHDConfig(relink_rule=rule), seed=0).run(frames)
+        res = LPFSMCPHD(PHDConfig(relink_rule=rule, relabel_distance=50.0), seed=0).run(frames)
         la, lb = labels_near(res, a, range(10, 30)), labels_near(res, b, range(10, 150))
         lz = labels_near(res, z, range(205, 230))
         assert len(la) == 1 and len(lb) == 1 and la != lb
         assert lz == (lb if rule == "likelihood" else la)
+
+
+def test_a_speaker_back_90_px_away_after_a_gap_keeps_the_label():
+    # one face at (100, 150) on frames 0-39, none on 40-59, then at (190, 150): the label is
+    # dropped about two frames into the gap and the face comes back 90 px from where it was
+    # last confirmed, about 20 frames later. The default relabel_distance (120: reach
+    # 120 + 20 = 140 px) relinks it; 50 (reach ~70 px) gives the speaker a new label
+    rng = np.random.default_rng(8)
+    frames = []
+    for t in range(90):
+        p = np.array([[100.0 if t < 40 else 190.0, 150.0]])
+        vis = p + rng.normal(scale=1.5, size=(1, 2)) if not 40 <= t < 60 else np.zeros((0, 2))
+        frames.append(make_frame(vis, np.zeros(0), np.zeros((0, 3)), 10.0))
+
+    def labels(cfg):
+        res = LPFSMCPHD(cfg, seed=0).run(frames)
+        return ({int(i) for e in res.estimates[5:40] for i in e.ids},
+                {int(i) for e in res.estimates[65:] for i in e.ids})
+
+    assert PHDConfig().relabel_distance == 120.0
+    before, after = labels(PHDConfig())
+    assert len(before) == 1 and after == before
+    before, after = labels(PHDConfig(relabel_distance=50.0))
+    assert len(before) == 1 and len(after) == 1 and after != before
 
 
 def test_a_faceless_label_s_velocity_decays_in_its_transition():
