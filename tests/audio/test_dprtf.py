@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from avtrack.audio import _dprtf_kernel
 from avtrack.audio.dprtf import (
     SOLVERS,
     DPRTFConfig,
@@ -135,12 +136,12 @@ def test_noise_only_input_gives_no_features_and_speech_bins_do():
     assert out.speech[:, 260:360].mean() > 0.9 and out.valid[:, :, 260:360].mean() > 0.8
 
 
-def turn_change(gap: int, seed: int = 7, n_freqs: int = 16):
+def turn_change(gap: int, seed: int = 7, n_freqs: int = 16, n_mics: int = 4):
     """Talker A (frames 150-249), ``gap`` frames of noise only, then talker B for 100 frames:
     two sources with their own CTFs (eq. 5.1), silent outside their turns, in weak noise.
     Returns the STFT and the DP-RTF features ``c / sqrt(1 + |c|^2)`` of A and B."""
     rng = np.random.default_rng(seed)
-    i_, q, t_ = 4, 8, 250 + gap + 100
+    i_, q, t_ = n_mics, 8, 250 + gap + 100
     x = 0.1 * (
         rng.standard_normal((i_, n_freqs, t_)) + 1j * rng.standard_normal((i_, n_freqs, t_))
     )
@@ -240,3 +241,79 @@ def test_estimator_validation():
     est = DPRTFEstimator(3, 8)
     with pytest.raises(ValueError, match="spec must have shape"):
         est.run(np.zeros((4, 8, 3), complex))
+
+
+# -- the compiled kernel of the Cholesky solver -------------------------------------------------
+
+needs_numba = pytest.mark.skipif(
+    not _dprtf_kernel.available(), reason="Numba not installed (or AVTRACK_NO_JIT set)"
+)
+
+
+def _numpy_form(est: DPRTFEstimator) -> DPRTFEstimator:
+    est.compiled = False
+    return est
+
+
+@needs_numba
+@pytest.mark.parametrize(
+    ("n_mics", "q", "with_noise", "phase_only"),
+    [
+        (4, 8, True, False),
+        (4, 8, False, False),
+        (3, 4, True, False),
+        (6, 8, True, False),
+        (4, 1, True, True),
+    ],  # the last: PRP-REM's narrow-band phases (lambda = 0)
+)
+def test_compiled_kernel_matches_the_numpy_form(n_mics, q, with_noise, phase_only):
+    """Same features, frame by frame, over turn changes and pauses (bins restarting, bins with
+    too little memory, noise bins skipped) as the NumPy form of eq. 5.9."""
+    x, _, _ = turn_change(30, seed=11, n_mics=n_mics)
+    cfg = DPRTFConfig(
+        ctf_length=q, noise=NoiseConfig() if with_noise else None, phase_only=phase_only
+    )
+    fast = DPRTFEstimator(n_mics, 16, config=cfg)
+    assert fast.compiled
+    ref = _numpy_form(DPRTFEstimator(n_mics, 16, config=cfg))
+    out_fast, out_ref = fast.run(x), ref.run(x)
+    np.testing.assert_array_equal(out_fast.speech, out_ref.speech)
+    np.testing.assert_array_equal(out_fast.valid, out_ref.valid)
+    np.testing.assert_allclose(out_fast.values, out_ref.values, atol=1e-8)
+    assert out_fast.valid.sum() > 1000
+
+
+def test_kernel_without_compilation_gives_the_numpy_forms_numbers():
+    """The kernel's arithmetic, run as plain Python on a small case (no Numba needed)."""
+    x, _ = ctf_mixture(5, n_mics=3, n_freqs=3, n_frames=25, q=2)
+    cfg = DPRTFConfig(ctf_length=2, noise=None)
+    ref = _numpy_form(DPRTFEstimator(3, 3, config=cfg)).run(x)
+    est = DPRTFEstimator(3, 3, config=cfg)
+    original = _dprtf_kernel.kernel
+    try:
+        _dprtf_kernel.kernel = lambda: _dprtf_kernel.update_and_solve  # type: ignore[assignment]
+        est.compiled = True
+        out = est.run(x)
+    finally:
+        _dprtf_kernel.kernel = original
+    np.testing.assert_array_equal(out.valid, ref.valid)
+    np.testing.assert_allclose(out.values, ref.values, atol=1e-9)
+    assert out.valid.any()
+
+
+def test_kernel_reports_a_matrix_that_is_not_positive_definite():
+    r = np.zeros((1, 4, 4), dtype=complex)
+    r[0] = -np.eye(4)  # an indefinite memory (cannot arise from eq. 5.9, but must be caught)
+    out = np.ones((1, 2, 2), dtype=complex)
+    ok = _dprtf_kernel.update_and_solve(
+        r,
+        np.array([0]),
+        np.zeros((1, 2, 2), dtype=complex),
+        np.array([1.0]),
+        np.array([False]),
+        np.array([True]),
+        1e-3,
+        1e-12,
+        out,
+    )
+    assert ok is False
