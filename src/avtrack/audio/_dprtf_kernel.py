@@ -50,9 +50,11 @@ def kernel() -> Callable[..., bool]:
 
         # reassociation lets the dot products vectorise; no "fast" flags that assume finite
         # values, since a non-positive pivot must still be detected
-        _KERNEL = njit(cache=True, nogil=True, fastmath={"reassoc", "contract", "arcp", "nsz"})(
-            update_and_solve
-        )
+        fast = {"reassoc", "contract", "arcp", "nsz"}
+        try:  # compiled once per machine: Numba caches it beside this file or in ~/.cache
+            _KERNEL = njit(cache=True, nogil=True, fastmath=fast)(update_and_solve)
+        except RuntimeError:  # no writable cache location (read-only install and home)
+            _KERNEL = njit(cache=False, nogil=True, fastmath=fast)(update_and_solve)
     return _KERNEL
 
 
