@@ -352,10 +352,14 @@ def test_lead_reports_the_constant_velocity_prediction_and_changes_nothing_else(
 def test_fast_map_settings_lower_the_peak_floor_and_the_birth_floor_and_lead():
     # dprtf-eg-fast maps have lower, wider peaks: the option observes the peaks over 1.15/D
     # (not 1.44/D) and lets DOAs down to 0.03 (not 0.05) start a source, 10° (not 20°) from
-    # another; the reported direction is the one predicted 0.2 s ahead (the map's delay);
-    # nothing else changes
+    # another, with an activity threshold of 0.032 (not 0.035); the reported direction is the
+    # one predicted 0.2 s ahead (the map's delay); nothing else changes
     assert FAST_MAP_CONFIG == dataclasses.replace(
-        VonMisesConfig(), birth_floor=0.03, birth_min_separation_deg=10.0, lead_s=0.2
+        VonMisesConfig(),
+        birth_floor=0.03,
+        birth_min_separation_deg=10.0,
+        activity_threshold=0.032,
+        lead_s=0.2,
     )
     w = np.array([[0.1, 0.32, 0.1, 0.28]])  # peaks 0.32 and 0.28; 1.15/4 = 0.2875, 1.44/4 = 0.36
     az = np.array([-90.0, 0.0, 90.0, 180.0])
