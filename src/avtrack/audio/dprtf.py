@@ -67,7 +67,7 @@ Two solvers give the same estimates (checked in the tests to ~1e-8):
 
 The Cholesky solver runs as one compiled loop over the speech bins (Numba,
 ``avtrack.audio._dprtf_kernel``: update, factorisation and the two small solves while the bin's
-matrix is in cache; 2.3-2.5x faster localization than the NumPy form on one core). The NumPy
+matrix is in cache; localization 2.0-2.3x faster than with the NumPy form, one core). The NumPy
 form remains (``AVTRACK_NO_JIT=1``, or Numba missing); the two agree to ~1e-10 and only the
 bins that give a feature are factorised.
 
