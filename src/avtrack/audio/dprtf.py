@@ -68,7 +68,7 @@ Two solvers give the same estimates (checked in the tests to ~1e-8):
 The Cholesky solver runs as one compiled loop over the speech bins (Numba,
 ``avtrack.audio._dprtf_kernel``: update, factorisation and the two small solves while the bin's
 matrix is in cache; localization 2.0-2.3x faster than with the NumPy form, one core). The NumPy
-form remains (``AVTRACK_NO_JIT=1``, or Numba missing); the two agree to ~1e-10 and only the
+form remains (``AVTRACK_NO_JIT=1``, or Numba missing); the two agree to ~1e-9 and only the
 bins that give a feature are factorised.
 
 Regularisation: the thesis initialises ``P = I`` (``R_0 = I``); to make the estimates
