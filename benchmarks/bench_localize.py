@@ -23,6 +23,7 @@ Usage::
 
     python benchmarks/bench_localize.py                        # speed only
     python benchmarks/bench_localize.py --seconds 20 --repeats 3
+    python benchmarks/bench_localize.py --methods dprtf-eg dprtf-eg-fast srp-phat --numpy-form
     python benchmarks/bench_localize.py --scene scenes/locata-0 scenes/locata-1 --no-speed
     python benchmarks/bench_localize.py --scene scenes/kinovis-* --markdown bench_localize.md
 """
@@ -115,8 +116,21 @@ def render(array: MicArray, seconds: float, seed: int = 0) -> np.ndarray:
     return y + 10 ** (-30 / 20) * rng.standard_normal(y.shape)
 
 
-def real_time_factor(method: str, array: MicArray, x: np.ndarray, repeats: int) -> float:
-    loc = make_localizer(method, array)
+def real_time_factor(
+    method: str, array: MicArray, x: np.ndarray, repeats: int, numpy_form: bool = False
+) -> float:
+    """Best-of-``repeats`` RF of ``method``; ``numpy_form``: with the DP-RTF estimator's NumPy
+    form instead of its compiled kernel (``AVTRACK_NO_JIT``, read when the estimator is made)."""
+    saved = os.environ.get("AVTRACK_NO_JIT")
+    if numpy_form:
+        os.environ["AVTRACK_NO_JIT"] = "1"
+    try:
+        loc = make_localizer(method, array)
+    finally:
+        if saved is None:
+            os.environ.pop("AVTRACK_NO_JIT", None)
+        else:
+            os.environ["AVTRACK_NO_JIT"] = saved
     loc.run(x[:, : 2 * FS])  # warm-up
     best = np.inf
     gc_was = gc.isenabled()
@@ -132,19 +146,26 @@ def real_time_factor(method: str, array: MicArray, x: np.ndarray, repeats: int) 
     return best / (x.shape[1] / FS)
 
 
-def speed(methods, seconds: float, repeats: int) -> list[dict]:
+def speed(methods, seconds: float, repeats: int, numpy_form: bool = False) -> list[dict]:
     rows = []
     for name in ("nao4", "nao8"):
         array = builtin_array(name)
         x = render(array, seconds)
         rf = {m: real_time_factor(m, array, x, repeats) for m in methods}
+        rf_np = (
+            {m: real_time_factor(m, array, x, repeats, numpy_form=True) for m in methods}
+            if numpy_form
+            else {}
+        )
         ref = rf.get("srp-phat", np.nan)
         for m in methods:
-            rows.append({"array": name, "method": m, "RF": rf[m], "x SRP": rf[m] / ref})
-            print(
-                f"  {name:5s} {LABELS.get(m, m):10s} RF {rf[m]:.3f}  ({rf[m] / ref:.1f} x SRP)",
-                flush=True,
-            )
+            row = {"array": name, "method": m, "RF": rf[m], "x SRP": rf[m] / ref}
+            line = f"  {name:5s} {LABELS.get(m, m):10s} RF {rf[m]:.3f}  ({rf[m] / ref:.1f} x SRP)"
+            if numpy_form:
+                row["RF numpy"] = rf_np[m]
+                line += f"  NumPy form RF {rf_np[m]:.3f} ({rf_np[m] / rf[m]:.2f} x)"
+            rows.append(row)
+            print(line, flush=True)
     return rows
 
 
@@ -208,16 +229,19 @@ def markdown(speed_rows, acc_rows, scenes, args) -> str:
         "",
     ]
     if speed_rows:
+        with_np = "RF numpy" in speed_rows[0]
         lines += [
             f"Real-time factor on a {args.seconds:g} s two-talker recording "
             "(lower is better; target DPRTF-EG <= 0.25 with 4 mics, <= 0.8 with 8):",
             "",
-            "| array | method | RF | x SRP-PHAT |",
-            "|---|---|---:|---:|",
+            "| array | method | RF | x SRP-PHAT |"
+            + (" RF, NumPy form | speed-up |" if with_np else ""),
+            "|---|---|---:|---:|" + ("---:|---:|" if with_np else ""),
         ]
         lines += [
             f"| {r['array']} | {LABELS.get(r['method'], r['method'])} | {r['RF']:.3f} "
             f"| {r['x SRP']:.1f} |"
+            + (f" {r['RF numpy']:.3f} | {r['RF numpy'] / r['RF']:.2f} x |" if with_np else "")
             for r in speed_rows
         ]
         lines.append("")
@@ -282,6 +306,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seconds", type=float, default=20.0, help="length of the speed recording")
     p.add_argument("--repeats", type=int, default=3)
     p.add_argument("--no-speed", action="store_true", help="skip the speed part")
+    p.add_argument(
+        "--numpy-form",
+        action="store_true",
+        help="also time each method with the DP-RTF estimator's NumPy form (AVTRACK_NO_JIT), "
+        "in the same process: the compiled kernel's speed-up",
+    )
     p.add_argument("--scene", nargs="*", type=Path, default=[], metavar="DIR")
     p.add_argument(
         "--skip",
@@ -307,7 +337,7 @@ def main(argv: list[str] | None = None) -> int:
     speed_rows, acc_rows = [], []
     if not args.no_speed:
         print("real-time factor (one BLAS thread):", flush=True)
-        speed_rows = speed(args.methods, args.seconds, args.repeats)
+        speed_rows = speed(args.methods, args.seconds, args.repeats, args.numpy_form)
     if args.scene:
         print(f"scores on {len(args.scene)} scene(s):", flush=True)
         acc_rows = accuracy(args.methods, args.scene, args.skip, configs)
