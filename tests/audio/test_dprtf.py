@@ -3,6 +3,7 @@ consistency test (eq. 5.11), noise handling and the two solvers' agreement."""
 
 from __future__ import annotations
 
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -317,3 +318,21 @@ def test_kernel_reports_a_matrix_that_is_not_positive_definite():
         out,
     )
     assert ok is False
+
+
+def test_estimator_falls_back_to_the_numpy_form_when_the_kernel_cannot_be_built(monkeypatch):
+    """No usable Numba (here: its import fails): one warning, then the NumPy form's features."""
+    x, _ = ctf_mixture(6, n_freqs=5, n_frames=30)
+    cfg = DPRTFConfig(noise=None)
+    ref = _numpy_form(DPRTFEstimator(4, 5, config=cfg)).run(x)
+    monkeypatch.setattr(_dprtf_kernel, "_KERNEL", None)
+    monkeypatch.setattr(_dprtf_kernel, "_FAILED", False)
+    monkeypatch.setitem(sys.modules, "numba", None)  # `from numba import njit` raises
+    est = DPRTFEstimator(4, 5, config=cfg)
+    est.compiled = True
+    with pytest.warns(RuntimeWarning, match="could not be built"):
+        out = est.run(x)
+    assert not est.compiled
+    np.testing.assert_array_equal(out.valid, ref.valid)
+    np.testing.assert_array_equal(out.values, ref.values)
+    assert _dprtf_kernel.kernel() is None  # decided once per process (no second warning)

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import warnings
 from collections.abc import Callable
 
 import numpy as np
@@ -42,19 +43,44 @@ def available() -> bool:
     return importlib.util.find_spec("numba") is not None
 
 
-def kernel() -> Callable[..., bool]:
-    """The compiled :func:`update_and_solve` (compiled once, cached on disk by Numba)."""
-    global _KERNEL
-    if _KERNEL is None:
-        from numba import njit
+#: the kernel's one signature: C-contiguous arrays as ``DPRTFEstimator`` passes them
+SIGNATURE = (
+    "b1(c16[:, :, ::1], i8[::1], c16[:, :, ::1], f8[::1], b1[::1], b1[::1], f8, f8, "
+    "c16[:, :, ::1])"
+)
+_FAILED = False  # the kernel could not be built here (then the NumPy form is used)
 
-        # reassociation lets the dot products vectorise; no "fast" flags that assume finite
-        # values, since a non-positive pivot must still be detected
-        fast = {"reassoc", "contract", "arcp", "nsz"}
-        try:  # compiled once per machine: Numba caches it beside this file or in ~/.cache
-            _KERNEL = njit(cache=True, nogil=True, fastmath=fast)(update_and_solve)
-        except RuntimeError:  # no writable cache location (read-only install and home)
-            _KERNEL = njit(cache=False, nogil=True, fastmath=fast)(update_and_solve)
+
+def kernel() -> Callable[..., bool] | None:
+    """The compiled :func:`update_and_solve`, or None if Numba cannot build it on this machine.
+
+    Built once per process for :data:`SIGNATURE` (Numba caches the machine code beside this file
+    or in ``~/.cache``; without a writable location it compiles without caching). A failure to
+    build warns once and returns None; the estimator then uses its NumPy form.
+    """
+    global _KERNEL, _FAILED
+    if _KERNEL is None and not _FAILED:
+        try:
+            from numba import njit
+
+            # reassociation lets the dot products vectorise; no "fast" flags that assume
+            # finite values, since a non-positive pivot must still be detected
+            fast = {"reassoc", "contract", "arcp", "nsz"}
+            try:
+                jit = njit(SIGNATURE, cache=True, nogil=True, fastmath=fast)
+                _KERNEL = jit(update_and_solve)
+            except RuntimeError:  # no writable cache location (read-only install and home)
+                _KERNEL = njit(SIGNATURE, cache=False, nogil=True, fastmath=fast)(
+                    update_and_solve
+                )
+        except Exception as exc:  # any failure to build: fall back to NumPy, loudly
+            _FAILED = True
+            warnings.warn(
+                f"avtrack: the compiled DP-RTF kernel could not be built ({exc!r}); using the "
+                "NumPy form (about 2x slower; set AVTRACK_NO_JIT=1 to silence this)",
+                RuntimeWarning,
+                stacklevel=2,
+            )
     return _KERNEL
 
 

@@ -478,11 +478,15 @@ class DPRTFEstimator:
         Same arithmetic; only the lower triangles of ``R`` are kept, and only the bins with
         enough memory (the ones that give a feature) are factorised.
         """
+        kern = _dprtf_kernel.kernel()
+        if kern is None:  # cannot be built here (warned once): the NumPy form from now on
+            self.compiled = False
+            return self._update_cholesky(s, v, age)
         i_ = v.shape[2]
         new = ~self._started[s]
         enough = self._memory[s] >= self.min_memory * (1.0 - 1e-9)
         out = np.ones((s.size, i_, 2), dtype=complex)  # placeholder where no feature is given
-        ok = _dprtf_kernel.kernel()(
+        ok = kern(
             self._r,
             s.astype(np.int64, copy=False),
             v,
