@@ -17,6 +17,7 @@ from avtrack.doa.base import (
 )
 from avtrack.io.scenario import validate_scenario
 from avtrack.localize import make_localizer
+from avtrack.localize.grid import azimuth_profile
 from avtrack.simulate.library import named_scenario
 from avtrack.simulate.scene import simulate_scene
 from avtrack.stream import AVStream, DOAStream
@@ -47,8 +48,9 @@ def batch_doa_tracks(array, x, tracker: str, step: int = 4, method: str = "dprtf
     loc = make_localizer(method, array)
     heat = loc.run(x)
     reading = map_reading(tracker, method)
+    profile, _ = azimuth_profile(heat.weights, loc.grid, loc.profile_reduce)
     seq = heatmap_sequence(
-        heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, step,
+        profile, loc.grid.azimuth_values, heat.frames, heat.time_s, step,
         reading.observations, PEAK_FLOOR, reading.uniform_floor,
     )
     trk = make_tracker(tracker, reading.config,

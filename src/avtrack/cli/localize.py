@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from avtrack.audio.arrays import load_array
+from avtrack.audio.arrays import MicArray, load_array
 from avtrack.audio.recording import FS, read_array_audio
 from avtrack.cli import progress
 from avtrack.cli.base import add_array_option, add_clipping_option, add_command, add_common
@@ -104,7 +104,9 @@ rate than 16 kHz is resampled.""",
     p.add_argument(
         "--elevations",
         metavar="E1,E2,...",
-        help="candidate elevations in degrees, e.g. --elevations=-20,0,20 (default: 0)",
+        help="candidate elevations in degrees, e.g. --elevations=-20,0,20 (default: 0,20,40,60 "
+        "for a planar array, -40..60 for a 3-D one, 0 for a line of microphones or an HRIR "
+        "array; peaks are taken over azimuth, at the elevation of their largest value)",
     )
     p.add_argument("--config", type=Path, metavar="FILE.yaml", help="the method's parameters")
     p.add_argument(
@@ -155,14 +157,15 @@ def localize_signal(localizer, x: np.ndarray, block_size: int | None, quiet: boo
         return localizer.run(x, block_size)
 
 
-def make_grid(step_deg: float, elevations: str | None) -> DirectionGrid:
-    """The candidate grid of ``--grid-step`` and ``--elevations``."""
+def make_grid(step_deg: float, elevations: str | None, array: MicArray) -> DirectionGrid:
+    """The candidate grid of ``--grid-step`` and ``--elevations`` (default: the elevations
+    ``array`` can tell apart, :meth:`DirectionGrid.for_array`)."""
     try:
         base = DirectionGrid.azimuths(step_deg)
     except ValueError as exc:
         raise InputError(f"--grid-step: {exc}") from None
     if elevations is None:
-        return base
+        return DirectionGrid.for_array(array, step_deg)
     try:
         values = sorted({float(v) for v in elevations.split(",") if v.strip()})
         return DirectionGrid(base.azimuth_values, np.asarray(values))
@@ -184,7 +187,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--block-size must be >= 1, got {args.block_size}")
     if args.roc and args.truth is None:
         raise InputError("--roc needs --truth GT.csv")
-    grid = make_grid(args.grid_step, args.elevations)
+    grid = make_grid(args.grid_step, args.elevations, array)
     truth = read_doa_csv(args.truth) if args.truth is not None else None
     x = read_array_audio(args.audio, array, args.allow_clipping, args.quiet)
     try:
@@ -198,7 +201,7 @@ def run(args: argparse.Namespace) -> int:
     floor = threshold if args.floor is None else min(args.floor, threshold)
     if args.roc:
         floor = min(floor, 0.0)
-    table = peak_table(heat, grid, threshold, floor, args.max_peaks)
+    table = peak_table(heat, grid, threshold, floor, args.max_peaks, localizer.profile_reduce)
     write_doa_csv(args.output, table)
     if args.plot is not None:
         plot_heatmap(args.plot, heat, grid, f"{args.method}: {args.audio.name}", truth)

@@ -109,6 +109,13 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         help="azimuth spacing of the candidate directions (default 5)",
     )
     p.add_argument(
+        "--elevations",
+        metavar="E1,E2,...",
+        help="candidate elevations in degrees, e.g. --elevations=0 for azimuth only (default: "
+        "0,20,40,60 for a planar array, -40..60 for a 3-D one, 0 for a line of microphones "
+        "or an HRIR array; the trackers follow the map summed over elevation)",
+    )
+    p.add_argument(
         "--observations",
         choices=OBSERVATION_MODES,
         help="from heat maps: every candidate direction with its weight (all), the same with "
@@ -156,25 +163,24 @@ def observations_from_audio(
     localization time (seconds)."""
     from avtrack.audio.arrays import load_array
     from avtrack.audio.recording import read_array_audio
-    from avtrack.cli.localize import load_method_config, localize_signal
-    from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer
+    from avtrack.cli.localize import load_method_config, localize_signal, make_grid
+    from avtrack.localize import LOCALIZERS, make_localizer
+    from avtrack.localize.grid import azimuth_profile
 
     if args.array is None:
         raise InputError("--array is required to localize AUDIO.wav")
     if args.method not in LOCALIZERS:
         raise InputError(f"--method must be one of {sorted(LOCALIZERS)}, got {args.method!r}")
     array = load_array(args.array)
-    try:
-        grid = DirectionGrid.azimuths(args.grid_step)
-    except ValueError as exc:
-        raise InputError(f"--grid-step: {exc}") from None
+    grid = make_grid(args.grid_step, args.elevations, array)
     x = read_array_audio(args.audio, array, args.allow_clipping, args.quiet)
     localizer = make_localizer(args.method, array, grid, load_method_config(args.method, None))
     t0 = time.perf_counter()
     heat = localize_signal(localizer, x, None, args.quiet)
     elapsed = time.perf_counter() - t0
+    profile, _ = azimuth_profile(heat.weights, grid, localizer.profile_reduce)
     seq = heatmap_sequence(
-        heat.weights, grid.azimuth_deg, heat.frames, heat.time_s, args.step, observations,
+        profile, grid.azimuth_values, heat.frames, heat.time_s, args.step, observations,
         uniform_floor=uniform_floor,
     )
     return seq, x.shape[1] / localizer.fs, elapsed

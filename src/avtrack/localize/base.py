@@ -98,7 +98,8 @@ class Localizer(ABC):
     array : MicArray
         The microphone array; WAV channel ``k`` is microphone ``k``.
     grid : DirectionGrid, optional
-        Candidate directions (default: 72 azimuths every 5 degrees, thesis §5.5.1).
+        Candidate directions (default: :meth:`DirectionGrid.for_array`, 72 azimuths every 5
+        degrees, thesis §5.5.1, at the elevations the array can tell apart).
     config : optional
         The implementation's parameters (its ``Config`` dataclass); default ``Config()``.
     stft : STFTConfig, optional
@@ -109,6 +110,10 @@ class Localizer(ABC):
     Config: ClassVar[type] = type(None)
     default_threshold: ClassVar[float] = 0.0
     """Peak threshold giving a reasonable MD/FA balance on simulated rooms (CLI default)."""
+    profile_reduce: ClassVar[str] = "sum"
+    """How the elevations of one azimuth combine in the map over azimuth
+    (:func:`~avtrack.localize.grid.azimuth_profile`): ``"sum"`` for weights that are a
+    distribution over the candidates, ``"max"`` for power maps."""
 
     def __init__(
         self,
@@ -124,7 +129,7 @@ class Localizer(ABC):
                 f"{type(self).__name__}: the array needs at least 2 microphones, "
                 f"got {array.n_mics}"
             )
-        grid = DirectionGrid.azimuths() if grid is None else grid
+        grid = DirectionGrid.for_array(array) if grid is None else grid
         if not isinstance(grid, DirectionGrid):
             raise TypeError(f"{type(self).__name__}: grid must be a DirectionGrid, got {grid!r}")
         config = self.Config() if config is None else config

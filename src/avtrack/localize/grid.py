@@ -95,6 +95,22 @@ class DirectionGrid:
         base = cls.azimuths(az_step_deg)
         return cls(base.azimuth_values, elevations_deg)
 
+    @classmethod
+    def for_array(cls, array: MicArray, step_deg: float = 5.0) -> DirectionGrid:
+        """The candidate directions an array can tell apart (:func:`elevation_support`).
+
+        Azimuths every ``step_deg``, at the elevations :data:`ELEVATION_ROWS` gives for the
+        array's support: elevation 0 only for a line of microphones (which hears azimuth up
+        to a mirror image and no elevation) and for arrays known by their HRIRs (measured at
+        one elevation); 0 to 60 degrees for a planar array (which cannot tell a source above
+        its plane from its mirror image below, so the upper half stands for both); -40 to 60
+        degrees for a three-dimensional array. Searching elevation removes a bias of azimuth
+        on a planar array: a talker at elevation ``e`` gives the phase differences of a
+        horizontal source scaled by ``cos e``, which no horizontal candidate fits.
+        """
+        base = cls.azimuths(step_deg)
+        return cls(base.azimuth_values, np.asarray(ELEVATION_ROWS[elevation_support(array)]))
+
     @property
     def n_azimuths(self) -> int:
         return self.azimuth_values.size
@@ -151,6 +167,84 @@ class DirectionGrid:
         u = _unit(az.reshape(-1), el.reshape(-1))
         c = _unit(self.azimuth_deg, self.elevation_deg)
         return np.argmax(u @ c.T, axis=1).reshape(az.shape)
+
+
+#: Candidate elevations (degrees) searched by :meth:`DirectionGrid.for_array` for each
+#: :func:`elevation_support`: 20-degree rows (a 5 cm array's elevation resolution is coarser
+#: than that), up to 60 degrees (above it, ``cos e < 0.5`` and azimuth is poorly heard).
+ELEVATION_ROWS: dict[str, tuple[float, ...]] = {
+    "none": (0.0,),
+    "upper": (0.0, 20.0, 40.0, 60.0),
+    "full": (-40.0, -20.0, 0.0, 20.0, 40.0, 60.0),
+}
+
+#: Relative flatness below which the microphones count as collinear or coplanar: the second
+#: (third) singular value of the centred positions below this fraction of the first.
+FLAT_RATIO = 0.05
+
+
+def elevation_support(array: MicArray) -> str:
+    """What elevation an array can hear: ``"none"``, ``"upper"`` or ``"full"``.
+
+    From the singular values ``s1 >= s2 >= s3`` of the centred microphone positions:
+    collinear microphones (``s2 < FLAT_RATIO s1``) hear no elevation (``"none"``); coplanar
+    ones (``s3 < FLAT_RATIO s1``) hear its magnitude but not its sign (``"upper"``); others
+    hear both (``"full"``). Arrays described by measured HRIRs (``kind == "hrtf"``) are
+    ``"none"``: the NAO set is measured at one elevation, and a binaural head tells elevation
+    by spectral cues that the direct-path features do not model.
+    """
+    if array.kind == "hrtf":
+        return "none"
+    rel = array.positions - array.centre
+    if array.n_mics < 3:
+        return "none"
+    s = np.linalg.svd(rel, compute_uv=False)
+    if s[0] <= 0 or s[1] < FLAT_RATIO * s[0]:
+        return "none"
+    if s.size < 3 or s[2] < FLAT_RATIO * s[0]:
+        return "upper"
+    return "full"
+
+
+#: How :func:`azimuth_profile` reduces the elevations of one azimuth: ``"sum"`` for maps that
+#: are distributions over the candidates (CGMM weights), ``"max"`` for power maps (SRP-PHAT).
+PROFILE_REDUCTIONS = ("sum", "max")
+
+
+def azimuth_profile(
+    weights: np.ndarray, grid: DirectionGrid, reduce: str = "sum"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Heat maps over azimuth only, and the elevation each azimuth's mass sits at.
+
+    Parameters
+    ----------
+    weights : ndarray (n_frames, D)
+        Heat maps over ``grid``.
+    grid : DirectionGrid
+    reduce : {"sum", "max"}
+        :data:`PROFILE_REDUCTIONS`.
+
+    Returns
+    -------
+    profile : ndarray (n_frames, n_azimuths)
+        The sum (the marginal of a CGMM's weights) or the largest value over elevations at
+        each azimuth; ``weights`` itself when the grid has one elevation.
+    elevation : ndarray (n_frames, n_azimuths)
+        The elevation of the largest value at each azimuth, degrees.
+    """
+    w = np.asarray(weights, dtype=float)
+    if w.ndim != 2 or w.shape[1] != grid.size:
+        raise ValueError(
+            f"azimuth_profile: weights must have shape (n_frames, {grid.size}), got {w.shape}"
+        )
+    if reduce not in PROFILE_REDUCTIONS:
+        raise ValueError(f"azimuth_profile: reduce must be one of {PROFILE_REDUCTIONS}, "
+                         f"got {reduce!r}")
+    g = w.reshape(w.shape[0], grid.n_elevations, grid.n_azimuths)
+    elevation = grid.elevation_values[np.argmax(g, axis=1)]
+    if grid.n_elevations == 1:
+        return g[:, 0, :], elevation
+    return (g.sum(axis=1) if reduce == "sum" else g.max(axis=1)), elevation
 
 
 def _unit(az_deg: np.ndarray, el_deg: np.ndarray) -> np.ndarray:

@@ -4,7 +4,10 @@ A candidate is a peak when its value is a local maximum of the heat map -- at le
 as its neighbours along azimuth (wrapping around on a circular grid) and along elevation, and
 strictly larger than the neighbours that come before it, so that a plateau gives one peak and
 a flat (uniform) map gives none -- and is at least the threshold. Frame-wise localization
-keeps the peaks above a threshold [78, 81]; sweeping that threshold gives the ROC curve of
+keeps the peaks above a threshold [78, 81]. On a grid of several elevations, peaks are taken
+on the map over azimuth (:func:`~avtrack.localize.grid.azimuth_profile`: the trackers follow
+azimuth, and a thresholded mass keeps its meaning whatever the number of elevation rows), each
+reported at the elevation where its azimuth's value is largest. Sweeping that threshold gives the ROC curve of
 thesis Fig. 5.3 (:func:`avtrack.metrics.doa.roc_sweep`).
 """
 
@@ -14,7 +17,7 @@ import numpy as np
 
 from avtrack.io.doa import DOATable
 from avtrack.localize.base import HeatMaps
-from avtrack.localize.grid import DirectionGrid
+from avtrack.localize.grid import DirectionGrid, azimuth_profile
 
 
 def local_maxima(weights: np.ndarray, grid: DirectionGrid) -> np.ndarray:
@@ -88,21 +91,33 @@ def peak_table(
     threshold: float,
     floor: float | None = None,
     max_peaks: int | None = None,
+    reduce: str = "sum",
 ) -> DOATable:
     """Frame-wise DOA estimates as a :class:`~avtrack.io.doa.DOATable` (``id = -1``).
 
     Peaks at or above ``floor`` (default: ``threshold``) are listed; ``active`` says whether
     they reach ``threshold``. A low ``floor`` keeps the weaker peaks for a later threshold
-    sweep (:func:`avtrack.metrics.doa.roc_sweep`).
+    sweep (:func:`avtrack.metrics.doa.roc_sweep`). On a grid of several elevations the peaks
+    are those of the azimuth profile (``reduce``: the localizer's
+    :attr:`~avtrack.localize.base.Localizer.profile_reduce`).
     """
     floor = threshold if floor is None else floor
-    rows, cand, vals = find_peaks(heatmaps, grid, min(floor, threshold), max_peaks)
+    if grid.n_elevations > 1:
+        profile, elevation = azimuth_profile(heatmaps.weights, grid, reduce)
+        heatmaps = HeatMaps(heatmaps.frames, heatmaps.time_s, profile, heatmaps.n_observations)
+        flat = DirectionGrid(grid.azimuth_values, np.zeros(1))
+        rows, cand, vals = find_peaks(heatmaps, flat, min(floor, threshold), max_peaks)
+        elevations = elevation[rows, cand]
+        azimuths = flat.azimuth_deg[cand]
+    else:
+        rows, cand, vals = find_peaks(heatmaps, grid, min(floor, threshold), max_peaks)
+        azimuths, elevations = grid.azimuth_deg[cand], grid.elevation_deg[cand]
     return DOATable(
         heatmaps.frames[rows],
         heatmaps.time_s[rows],
         np.full(rows.size, -1),
-        grid.azimuth_deg[cand],
-        grid.elevation_deg[cand],
+        azimuths,
+        elevations,
         vals,
         vals >= threshold,
     )

@@ -29,6 +29,7 @@ from avtrack.doa.base import (
     map_reading,
 )
 from avtrack.localize import DirectionGrid, make_localizer
+from avtrack.localize.grid import azimuth_profile
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,7 +70,9 @@ class DOAStream:
         peaks at or above ``floor``, or those at or above a multiple of the uniform weight
         (default: the tracker's own for ``method``'s maps, :func:`~avtrack.doa.base.map_reading`).
     grid : DirectionGrid, optional
-        Candidate directions (default: 72 azimuths every 5 degrees).
+        Candidate directions (default: :meth:`DirectionGrid.for_array`; on a grid of several
+        elevations the trackers observe the map over azimuth,
+        :func:`~avtrack.localize.grid.azimuth_profile`).
     method_config, tracker_config : optional
         The localizer's and the tracker's ``Config`` dataclasses (default: the localizer's
         defaults, and the tracker's for ``method``'s maps, :func:`~avtrack.doa.base.map_reading`).
@@ -117,18 +120,13 @@ class DOAStream:
             raise ValueError(f"DOAStream: floor must be a finite number >= 0, got {floor!r}")
         self.localizer = make_localizer(method, array, grid, method_config)
         self.grid = self.localizer.grid
-        if self.grid.n_elevations != 1:
-            raise ValueError(
-                "DOAStream: the DOA trackers need an azimuth-only grid (one elevation), got "
-                f"{self.grid.n_elevations} elevations"
-            )
         self.step = int(step)
         self.observations = observations
         self.floor = float(floor)
         self.uniform_floor = reading.uniform_floor
         hop = self.localizer.stft_config.frame_period_s
         self.tracker = make_tracker(tracker, tracker_config, frame_period_s=self.step * hop)
-        self._azimuths = np.array(self.grid.azimuth_deg, dtype=float)
+        self._azimuths = np.array(self.grid.azimuth_values, dtype=float)
         self._azimuths.setflags(write=False)
         self.reset()
 
@@ -152,7 +150,8 @@ class DOAStream:
         """Start a new stream."""
         self.localizer.reset()
         self.tracker.reset()
-        self._held = np.zeros((0, self.grid.size))  # heat maps waiting for their block
+        # maps over azimuth waiting for their block
+        self._held = np.zeros((0, self.grid.n_azimuths))
         self._held_frames = np.zeros(0, dtype=np.int64)
         self._held_times = np.zeros(0)
         self.samples_in = 0
@@ -174,7 +173,8 @@ class DOAStream:
         self.samples_in += int(np.shape(block)[1])
         if len(heat) == 0:
             return []
-        w = np.concatenate([self._held, heat.weights]) if len(self._held) else heat.weights
+        w, _ = azimuth_profile(heat.weights, self.grid, self.localizer.profile_reduce)
+        w = np.concatenate([self._held, w]) if len(self._held) else w
         frames = np.concatenate([self._held_frames, heat.frames])
         times = np.concatenate([self._held_times, heat.time_s])
         n_done = (w.shape[0] // self.step) * self.step
