@@ -196,7 +196,7 @@ def main(argv: list[str] | None = None) -> int:
             tot[2] += s["extra"]
             tot[3] += list(s["found"].values())
             talk = " ".join(
-                f"{az:.0f}:{'%.1f' % s['found'][k] if k in s['found'] else 'missed'}"
+                f"{az:.0f}:{format(s['found'][k], '.1f') if k in s['found'] else 'missed'}"
                 for k, (az, _el) in enumerate(rec.talkers)
             )
             tracks = " ".join(f"{v:.0f}" for v in sorted(s["tracks"].values()))
@@ -223,9 +223,9 @@ def main(argv: list[str] | None = None) -> int:
              for k, (_h, _e, f) in enumerate(s["talkers"]) if ref.get((rec.path, k))),
             default=float("nan"),
         )
-        share = 100.0 * hits / max(sum(ref.values()), 1)
+        share = f"{100.0 * hits / sum(ref.values()):.0f} %" if ref else "n/a"
         lines.append(f"| {m} | {hits / max(n_frames, 1):.0f} frames/talker | {err:.2f} | "
-                     f"{far:.1f} | {share:.0f} % (worst talker {100 * worst:.0f} %) | "
+                     f"{far:.1f} | {share} (worst talker {100 * worst:.0f} %) | "
                      f"{np.mean(rf[m]):.3f} |")
     # SRP-PHAT's hits within the default localizer's, single-talker files
     if "srp-phat" in totals and DEFAULT_METHOD in totals:
@@ -242,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_trackers:
         lines += ["", f"### Trackers on {DEFAULT_METHOD} maps at their defaults", "",
                   "| file | tracker | talker: error of its track (deg) | extra | track means |",
-                  "|---|---|---|---:|---|"] + track_rows
+                  "|---|---|---|---:|---|", *track_rows]
         lines += ["", "| tracker | talkers found | extra tracks | mean error (deg) |",
                   "|---|---:|---:|---:|"]
         for t, (f, n, e, errs) in track_totals.items():

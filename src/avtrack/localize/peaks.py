@@ -7,8 +7,8 @@ a flat (uniform) map gives none -- and is at least the threshold. Frame-wise loc
 keeps the peaks above a threshold [78, 81]. On a grid of several elevations, peaks are taken
 on the map over azimuth (:func:`~avtrack.localize.grid.azimuth_profile`: the trackers follow
 azimuth, and a thresholded mass keeps its meaning whatever the number of elevation rows), each
-reported at the elevation where its azimuth's value is largest. Sweeping that threshold gives the ROC curve of
-thesis Fig. 5.3 (:func:`avtrack.metrics.doa.roc_sweep`).
+reported at the elevation where its azimuth's value is largest. Sweeping that threshold gives
+the ROC curve of thesis Fig. 5.3 (:func:`avtrack.metrics.doa.roc_sweep`).
 """
 
 from __future__ import annotations
