@@ -65,6 +65,11 @@ speech:
 noise:
   diffuse_snr_db: 20.0      # spatially diffuse noise; null = none
   fan_snr_db: null          # stationary fan noise 10 cm behind the array centre; null = none
+sensors:                    # optional; omitted = ideal, matched, noiseless microphones
+  gain_mismatch_db: 0.0     # std of a per-microphone gain drawn per scene (dB, >= 0)
+  delay_mismatch_samples: 0.0  # std of a per-microphone delay drawn per scene (samples, >= 0)
+  self_noise_snr_db: null   # speech to uncorrelated white self-noise per microphone (dB);
+                            # null = none
 detector:                   # simulated head detector
   miss_rate: 0.1
   false_alarm_rate: 0.2     # mean false alarms per frame
@@ -116,6 +121,14 @@ DEFAULTS: dict[str, Any] = {
         "appearance_noise": 0.3,
     },
     "render": {"step_m": 0.05},
+}
+
+#: Defaults of the optional ``sensors`` section (ideal microphones). The section is kept in the
+#: validated scenario only when the file has it, so that scenes without it are written as before.
+SENSOR_DEFAULTS: dict[str, Any] = {
+    "gain_mismatch_db": 0.0,
+    "delay_mismatch_samples": 0.0,
+    "self_noise_snr_db": None,
 }
 
 MOTION_DEFAULTS: dict[str, dict[str, Any]] = {
@@ -216,11 +229,11 @@ def validate_scenario(raw: Any, path: str | Path | None = None) -> dict:
     """
     ck = _Checker(path)
     raw = ck.mapping(raw, "scenario")
-    ck.unknown(raw, set(DEFAULTS) | {"people"}, "")
+    ck.unknown(raw, set(DEFAULTS) | {"people", "sensors"}, "")
     for key in ("room", "array", "camera", "speech", "noise", "detector", "render"):
         if key in raw:
             ck.unknown(ck.mapping(raw[key], key), DEFAULTS[key], key)
-    sc = _merge(DEFAULTS, {k: v for k, v in raw.items() if k != "people"})
+    sc = _merge(DEFAULTS, {k: v for k, v in raw.items() if k not in ("people", "sensors")})
 
     if not isinstance(sc["name"], str) or not sc["name"]:
         ck.fail("name", f"expected a non-empty string, got {_show(sc['name'])}")
@@ -273,6 +286,20 @@ def validate_scenario(raw: Any, path: str | Path | None = None) -> dict:
         nz["diffuse_snr_db"], "noise.diffuse_snr_db", lo=-30, hi=100
     )
     nz["fan_snr_db"] = ck.optional_number(nz["fan_snr_db"], "noise.fan_snr_db", lo=-30, hi=100)
+
+    if "sensors" in raw:
+        ck.unknown(ck.mapping(raw["sensors"], "sensors"), SENSOR_DEFAULTS, "sensors")
+        sn = _merge(SENSOR_DEFAULTS, raw["sensors"])
+        sn["gain_mismatch_db"] = ck.number(
+            sn["gain_mismatch_db"], "sensors.gain_mismatch_db", lo=0, hi=20
+        )
+        sn["delay_mismatch_samples"] = ck.number(
+            sn["delay_mismatch_samples"], "sensors.delay_mismatch_samples", lo=0, hi=16
+        )
+        sn["self_noise_snr_db"] = ck.optional_number(
+            sn["self_noise_snr_db"], "sensors.self_noise_snr_db", lo=-30, hi=100
+        )
+        sc["sensors"] = sn
 
     det = sc["detector"]
     for key in ("miss_rate", "occlusion_threshold"):

@@ -45,6 +45,7 @@ from avtrack.io.rttm import RTTMSegment, write_rttm
 from avtrack.io.scenario import dump_scenario
 from avtrack.simulate import acoustics
 from avtrack.simulate.detections import DetectorConfig, SimulatedDetections, simulate_detections
+from avtrack.simulate.sensors import SensorDraw, SensorModel, apply_mismatch, white_noise
 from avtrack.simulate.speech import (
     SpeechSegment,
     fill_segments,
@@ -91,6 +92,9 @@ class Scene:
     detections : SimulatedDetections
     doa : DOATable
         Ground-truth directions of arrival.
+    sensors : SensorDraw or None
+        The drawn per-microphone gain and delay mismatch (None: the scenario has no
+        ``sensors`` section).
     """
 
     scenario: dict
@@ -105,6 +109,7 @@ class Scene:
     heads: np.ndarray
     detections: SimulatedDetections
     doa: DOATable
+    sensors: SensorDraw | None = None
 
     @property
     def fs(self) -> int:
@@ -112,7 +117,8 @@ class Scene:
 
 
 def _streams(seed: int) -> dict[str, np.random.Generator]:
-    names = ("motion", "schedule", "material", "noise", "detections", "levels", "tails")
+    # SeedSequence.spawn keys children by index: appending a stream leaves the others unchanged
+    names = ("motion", "schedule", "material", "noise", "detections", "levels", "tails", "sensors")
     children = np.random.SeedSequence(seed).spawn(len(names))
     return {n: np.random.default_rng(c) for n, c in zip(names, children, strict=True)}
 
@@ -343,6 +349,11 @@ def simulate_scene(
         else:
             noise = acoustics.fan_noise_image(room, array, pose, n_samples, fs, rngs["noise"])
         audio += _scaled_noise(speech, noise, snr, active)
+    draw = None
+    if "sensors" in scenario:
+        audio, draw = _imperfect_sensors(
+            audio, speech, active, scenario["sensors"], rngs["sensors"]
+        )
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     if peak > 0:
         audio *= 0.9 / peak
@@ -369,6 +380,7 @@ def simulate_scene(
         heads,
         detections,
         doa,
+        draw,
     )
 
 
@@ -388,6 +400,25 @@ def _scaled_noise(speech: np.ndarray, noise: np.ndarray, snr_db: float, active: 
     p_ref = speech.shape[0] / REFERENCE_DISTANCE_M**2
     p_noise = float(np.sum(np.mean(noise**2, axis=1)))
     return noise * np.sqrt(p_ref / (p_noise * 10 ** (snr_db / 10)))
+
+
+def _imperfect_sensors(
+    audio: np.ndarray,
+    speech: np.ndarray,
+    active: np.ndarray,
+    spec: dict,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, SensorDraw]:
+    """The microphone signals through imperfect sensors (:mod:`avtrack.simulate.sensors`):
+    ``y_m = 10^(g_m / 20) x_m[n - delta_m] + sigma w_m``, the self-noise ``sigma w`` scaled
+    against the speech image like the acoustic noise."""
+    model = SensorModel(**spec)
+    draw = model.draw(audio.shape[0], rng)
+    out = apply_mismatch(audio, draw)
+    if model.self_noise_snr_db is not None:
+        w = white_noise(audio.shape[0], audio.shape[1], rng)
+        out += _scaled_noise(speech, w, model.self_noise_snr_db, active)
+    return out, draw
 
 
 def _relabel(det: SimulatedDetections, ids: np.ndarray) -> SimulatedDetections:
