@@ -94,3 +94,64 @@ def test_nao_hrir_means(shared_data):
     # direction-dependent: at 2 kHz the 72 candidate means are well apart
     d = np.abs(means[:, 32, :, None] - means[:, 32, None, :]).sum(axis=0)
     assert np.min(d[~np.eye(72, dtype=bool)]) > 0.01
+
+
+def test_elevation_support_follows_the_array_geometry():
+    from avtrack.audio.arrays import MicArray, builtin_array
+    from avtrack.localize.grid import ELEVATION_ROWS, elevation_support
+
+    line = MicArray("line", [[x, 0.0, 0.0] for x in (-0.05, 0.0, 0.05, 0.1)])
+    square = MicArray("square", [[0.02, 0.02, 0], [-0.02, 0.02, 0], [-0.02, -0.02, 0],
+                                 [0.02, -0.02, 0]])
+    tilted = MicArray("tilted", square.positions @ np.array([[1, 0, 0], [0, 0.8, 0.6],
+                                                              [0, -0.6, 0.8]]))
+    cube = MicArray("cube", [[0.03, 0, 0], [0, 0.03, 0], [-0.03, 0, 0], [0, 0, 0.03]])
+    assert elevation_support(line) == "none"
+    assert elevation_support(square) == "upper"
+    assert elevation_support(tilted) == "upper"  # a plane in any orientation
+    assert elevation_support(cube) == "full"
+    assert elevation_support(builtin_array("nao4", hrir=True)) == "none"
+    grid = DirectionGrid.for_array(square, 10.0)
+    assert grid.n_azimuths == 36
+    assert tuple(grid.elevation_values) == ELEVATION_ROWS["upper"]
+    assert DirectionGrid.for_array(line).n_elevations == 1
+
+
+def test_azimuth_profile_sums_or_maxes_over_elevations():
+    from avtrack.localize.grid import azimuth_profile
+
+    grid = DirectionGrid(np.array([-90.0, 0.0, 90.0, 180.0]), np.array([0.0, 30.0]))
+    w = np.array([[0.1, 0.2, 0.0, 0.1, 0.3, 0.1, 0.2, 0.0]])  # rows: elevation 0, then 30
+    prof, el = azimuth_profile(w, grid)
+    np.testing.assert_allclose(prof, [[0.4, 0.3, 0.2, 0.1]])
+    np.testing.assert_array_equal(el, [[30.0, 0.0, 30.0, 0.0]])
+    prof_max, _ = azimuth_profile(w, grid, "max")
+    np.testing.assert_allclose(prof_max, [[0.3, 0.2, 0.2, 0.1]])
+    with pytest.raises(ValueError, match="reduce must be one of"):
+        azimuth_profile(w, grid, "mean")
+    with pytest.raises(ValueError, match=r"weights must have shape \(n_frames, 8\)"):
+        azimuth_profile(w[:, :4], grid)
+
+
+def test_elevated_talker_on_a_planar_array_is_placed_in_azimuth_and_elevation():
+    """A talker 40 degrees above a planar array: its phase differences are those of a
+    horizontal source scaled by cos 40; the elevation rows find it."""
+    from avtrack.audio.arrays import MicArray, steering_delays
+    from avtrack.localize import make_localizer, peak_table
+
+    rng = np.random.default_rng(0)
+    h = 0.02285
+    array = MicArray("square", [[h, h, 0], [-h, h, 0], [-h, -h, 0], [h, -h, 0]])
+    n = 16000
+    s = rng.standard_normal(n + 64)
+    tau = steering_delays(array, 150.0, 40.0) * 16000  # samples, (4,)
+    f = np.fft.rfftfreq(n + 64)
+    spec = np.fft.rfft(s)
+    x = np.stack([np.fft.irfft(spec * np.exp(-2j * np.pi * f * t), n + 64)[:n] for t in tau])
+    x += 0.05 * rng.standard_normal(x.shape)
+    loc = make_localizer("dprtf-eg", array)
+    assert loc.grid.n_elevations == 4
+    table = peak_table(loc.run(x), loc.grid, loc.default_threshold, max_peaks=1)
+    late = table.frames > 60
+    assert np.median(np.abs(table.azimuth_deg[late] - 150.0)) <= 5.0
+    assert np.median(table.elevation_deg[late]) == 40.0

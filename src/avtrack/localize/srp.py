@@ -32,13 +32,14 @@ the denominator a minimum-statistics noise floor (R. Martin, "Noise power spectr
 estimation based on optimal smoothing and minimum statistics", IEEE TSAP 9(5), 2001) of the
 frame's contrast over the last ``W`` seconds, kept above a fraction ``epsilon`` of the largest
 contrast heard so far (a recording without noise has no floor to measure). A peak of 3 stands
-three times above the noise's own peaks. ``relative=False`` gives the thesis's map,
-``max(S_t, 0)``.
+three times above the noise's own peaks; the default threshold is 2.5. ``relative=False``
+gives the thesis's map, ``max(S_t, 0)``.
 """
 
 from __future__ import annotations
 
 import collections
+import math
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -124,7 +125,7 @@ class SRPPHAT(Localizer):
     """SRP-PHAT with recursive smoothing over frames (see the module docstring)."""
 
     Config: ClassVar[type] = SRPConfig
-    default_threshold: ClassVar[float] = 3.0
+    default_threshold: ClassVar[float] = 2.5
     profile_reduce: ClassVar[str] = "max"
 
     def _setup(self) -> None:
@@ -147,12 +148,16 @@ class SRPPHAT(Localizer):
         window = max(1, round(self.config.floor_window_s / self.stft_config.frame_period_s))
         floors = np.empty(contrast.size)
         q = self._contrasts  # (frame, c) with increasing c: the sliding minimum
+        # S_t starts from 0: its first 1/alpha frames are a ramp, not the noise's contrast
+        warmup = math.ceil(1.0 / self.config.smoothing)
         for t, c in enumerate(contrast):
             n = self._frame + t
+            if n < warmup:
+                q.clear()  # the ramp's latest value stands in until it ends
             while q and q[-1][1] >= c:
                 q.pop()
             q.append((n, float(c)))
-            while q[0][0] <= n - window:
+            while len(q) > 1 and q[0][0] <= n - window:
                 q.popleft()
             self._loudest = max(self._loudest, float(c))
             floors[t] = max(q[0][1], self.config.floor_fraction * self._loudest, _TINY)
