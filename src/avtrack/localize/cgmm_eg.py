@@ -323,7 +323,7 @@ class EGConfig:
     step_boost: float = 0.0
     output_silence_rate: float | None = None
     position_step: float | None = None
-    position_smoothing: float = 0.05
+    position_smoothing: float = 0.4
     position_share: float = 0.01
     presence_reach: int = 3
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
@@ -464,15 +464,15 @@ class DPRTFEG(CGMMLocalizer):
 @dataclass(frozen=True)
 class FastEGConfig(EGConfig):
     """:class:`EGConfig` with the position weights on (``position_step = 0.3``, position
-    smoothing 0.05, share 0.01, presence reach 3 cells).
+    smoothing 0.4, share 0.01, presence reach 3 cells), chosen on development seeds of both
+    simulated scene kinds.
 
     The position weights' spatial smoothing is the random walk that lets their peaks follow a
-    moving talker, and it also blurs neighbouring talkers into each other: at 0.4 a cell a
-    frame, two talkers 45 degrees apart on a real 4.6 cm array became one peak between them
-    (each talker's direction pulled 5-8 degrees towards the other, the quieter one found in a
-    third of its frames). 0.05 resolves them (matched error 2.7 degrees over the shared real
-    recordings) and still follows talkers walking around a NAO head within the lag the
-    trackers compensate (BENCHMARKS.md, acoustic tracking).
+    moving talker; it also blurs neighbouring talkers into each other. On a real 4.6 cm array
+    two talkers 45 degrees apart become one peak between them (each pulled 5-8 degrees towards
+    the other). A smoothing of 0.05 resolves them (matched error 2.7 degrees over the shared
+    real recordings) but triples the lag on a moving talker (BENCHMARKS.md, acoustic
+    localization on real arrays): the default keeps the lag.
     """
 
     position_step: float | None = 0.3
