@@ -43,3 +43,10 @@ def _private_cache(tmp_path_factory):
         os.environ.pop("AVTRACK_CACHE", None)
     else:
         os.environ["AVTRACK_CACHE"] = old
+
+
+@pytest.fixture(autouse=True)
+def _own_working_directory(tmp_path_factory, monkeypatch):
+    """Each test runs in an empty working directory of its own: what a user left in the
+    checkout (``./avtrack-demo`` after ``avtrack demo``, say) cannot change a test's result."""
+    monkeypatch.chdir(tmp_path_factory.mktemp("cwd"))
