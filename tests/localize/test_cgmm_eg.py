@@ -240,3 +240,55 @@ def test_position_weights_follow_a_moving_talker_with_a_short_lag():
     fast = _synthetic_lag(EGConfig(position_step=0.3))
     assert thesis > 20  # the thesis weights trail the talker (BENCHMARKS.md, issue 23)
     assert fast <= 10
+
+
+def test_drift_moves_mass_by_linear_interpolation():
+    from avtrack.localize.cgmm_eg import drift
+
+    grid = DirectionGrid.azimuths(90.0)  # -90, 0, 90, 180 (circular)
+    w = np.array([0.0, 1.0, 0.0, 0.0])
+    np.testing.assert_allclose(drift(w, grid, 0.25), [0.0, 0.75, 0.25, 0.0])
+    np.testing.assert_allclose(drift(w, grid, -1.0), [1.0, 0.0, 0.0, 0.0])
+    np.testing.assert_allclose(drift(np.array([0.1, 0.2, 0.3, 0.4]), grid, 1.0),
+                               [0.4, 0.1, 0.2, 0.3])  # wraps around
+    line = DirectionGrid(np.array([0.0, 10.0, 20.0]), np.zeros(1))
+    np.testing.assert_allclose(drift(np.array([0.0, 0.0, 1.0]), line, 0.5), [0, 0, 0.5])
+    with pytest.raises(ValueError, match=r"cells must be in \[-1, 1\]"):
+        drift(w, grid, 1.5)
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.floats(0.01, 1.0), min_size=8, max_size=8), st.floats(-1.0, 1.0))
+def test_drift_keeps_the_mass_on_a_circle(values, cells):
+    from avtrack.localize.cgmm_eg import drift
+
+    w = np.asarray(values)
+    out = drift(w, DirectionGrid.azimuths(45.0), cells)
+    assert np.all(out >= 0) and np.isclose(out.sum(), w.sum())
+
+
+def test_layered_eg_update_with_one_layer_is_the_plain_update():
+    from avtrack.localize.cgmm_eg import eg_update, eg_update_layers
+
+    rng = np.random.default_rng(0)
+    w = rng.dirichlet(np.ones(6))
+    ratios = rng.uniform(0.1, 3.0, size=(5, 6))
+    np.testing.assert_allclose(eg_update_layers(w[None], ratios, 0.3, 0.1)[0],
+                               eg_update(w, ratios, 0.3, 0.1))
+    # two layers: each direction's layers get the same gradient; the total sums to one
+    layers = np.stack([0.25 * w, 0.75 * w])
+    out = eg_update_layers(layers, ratios, 0.3, 0.0)
+    assert np.isclose(out.sum(), 1.0)
+    np.testing.assert_allclose(out[0] / out[1], 1 / 3)
+
+
+def test_velocity_layers_follow_a_moving_talker_with_a_small_random_walk():
+    walk = _synthetic_lag(EGConfig(position_step=0.3, position_smoothing=0.05))
+    layers = _synthetic_lag(EGConfig(position_step=0.3, position_smoothing=0.05,
+                                     position_velocities_deg_s=(-60.0, -30.0, 0.0, 30.0, 60.0)))
+    assert walk > 20  # a small random walk alone trails the talker
+    assert layers <= 10
+    with pytest.raises(ValueError, match="position_velocities_deg_s must be a non-empty list"):
+        EGConfig(position_velocities_deg_s=())
+    with pytest.raises(ValueError, match="must move at most one azimuth cell"):
+        _eg(EGConfig(position_step=0.3, position_velocities_deg_s=(1e6,)))

@@ -249,6 +249,43 @@ def place_presence(
     return position * p_w / np.maximum(p_v, _TINY)  # h_d = v_d P_d(w) / P_d(v)
 
 
+def drift(weights: np.ndarray, grid: DirectionGrid, cells: float) -> np.ndarray:
+    """Move the weights ``cells`` azimuth cells along the grid (``|cells| <= 1``; positive:
+    towards larger azimuths), sharing each cell's mass between its own and the next cell by
+    linear interpolation, ``w'_d = (1 - |s|) w_d + |s| w_{d - sign(s)}``. Mass that would
+    leave the end of a non-circular grid is lost.
+
+    Parameters
+    ----------
+    weights : ndarray (D,)
+    grid : DirectionGrid
+    cells : float
+    """
+    if not -1.0 <= cells <= 1.0:
+        raise ValueError(f"drift: cells must be in [-1, 1], got {cells!r}")
+    if cells == 0:
+        return weights
+    prev, nxt, has_prev, has_next = grid.azimuth_neighbours
+    src = weights[prev] * has_prev if cells > 0 else weights[nxt] * has_next
+    a = abs(cells)
+    return (1.0 - a) * weights + a * src
+
+
+def eg_update_layers(
+    layers: np.ndarray, ratios: np.ndarray, step: float, entropy: float
+) -> np.ndarray:
+    """Eqs. 5.17-5.19 on weights split into velocity layers ``(U, D)``: the mixture weight of
+    direction ``d`` is ``sum_u v_{u,d}``, so every layer of ``d`` receives the gradient of
+    ``d`` (``ratios`` are computed with the marginal); the entropy term and the normalisation
+    are over all ``U D`` cells."""
+    log_v = np.log(np.maximum(layers, _TINY))
+    grad_l = -ratios.mean(axis=0)  # dL_t/dv_{u,d} = dL_t/dw_d              (eq. 5.17)
+    log_v = log_v - step * (grad_l[None, :] - entropy * (1.0 + log_v))  # (eq. 5.18)
+    log_v -= log_v.max()
+    v = np.exp(log_v)
+    return v / v.sum()  # (eq. 5.19)
+
+
 @dataclass(frozen=True)
 class EGConfig:
     """Parameters of :class:`DPRTFEG` (thesis §5.5.1 unless stated).
@@ -299,6 +336,19 @@ class EGConfig:
         Spatial smoothing coefficient of ``v_t`` (the random walk that lets its peaks move).
     position_share : float
         Fixed share ``alpha`` of ``v_t`` after each update (see ``share``).
+    position_velocities_deg_s : tuple of float or None
+        None: the position weights' prediction is the symmetric random walk of
+        ``position_smoothing`` alone. A tuple of angular velocities (degrees per second): the
+        position weights are split into one layer per velocity, ``v_t = sum_u v_{u,t}``, and
+        each layer's prediction moves its mass at its velocity (:func:`drift`) before the
+        random walk, as in a multiple-model grid filter (X. R. Li and V. P. Jilkov, "Survey
+        of maneuvering target tracking. Part V: multiple-model methods", IEEE TAES 41(4),
+        2005). A talker who moves keeps the layer of its velocity; a talker who stands keeps
+        the zero layer, whose peaks a small random walk leaves sharp, so that talkers close to
+        each other stay apart. Not in the thesis.
+    velocity_switch : float
+        Share of each layer's mass handed to the other layers every frame (equally), the
+        chance of a change of velocity.
     presence_reach : int
         ``r`` of :func:`place_presence`, in azimuth cells: the masses are summed within ``r``
         cells and the largest taken within ``r`` cells more, so the slow weights may trail a
@@ -325,6 +375,8 @@ class EGConfig:
     position_step: float | None = None
     position_smoothing: float = 0.4
     position_share: float = 0.01
+    position_velocities_deg_s: tuple[float, ...] | None = None
+    velocity_switch: float = 0.01
     presence_reach: int = 3
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
 
@@ -343,7 +395,19 @@ class EGConfig:
                 raise ValueError(
                     f"EGConfig: output_silence_rate must be <= 1, got {self.output_silence_rate!r}"
                 )
-        for name in ("silence_rate", "smoothing", "share", "position_smoothing", "position_share"):
+        if self.position_velocities_deg_s is not None:
+            vel = tuple(self.position_velocities_deg_s)
+            if not vel or not all(
+                isinstance(x, int | float) and not isinstance(x, bool) and np.isfinite(x)
+                for x in vel
+            ):
+                raise ValueError(
+                    "EGConfig: position_velocities_deg_s must be a non-empty list of finite "
+                    f"numbers, got {self.position_velocities_deg_s!r}"
+                )
+            object.__setattr__(self, "position_velocities_deg_s", tuple(float(x) for x in vel))
+        for name in ("silence_rate", "smoothing", "share", "position_smoothing", "position_share",
+                     "velocity_switch"):
             _positive("EGConfig", name, getattr(self, name), allow_zero=True)
             if getattr(self, name) > 1:
                 raise ValueError(f"EGConfig: {name} must be <= 1, got {getattr(self, name)!r}")
@@ -425,9 +489,30 @@ class DPRTFEG(CGMMLocalizer):
     Config: ClassVar[type] = EGConfig
     default_threshold: ClassVar[float] = 0.03
 
+    def _drift_per_frame(self) -> np.ndarray:
+        """Azimuth cells each velocity layer moves a frame ``(U,)`` (one layer at 0 without
+        ``position_velocities_deg_s``)."""
+        vel = self.config.position_velocities_deg_s
+        if self.config.position_step is None or vel is None:
+            return np.zeros(1)
+        az = self.grid.azimuth_values
+        step_deg = 360.0 / az.size if self.grid.circular else (
+            float(np.min(np.diff(az))) if az.size > 1 else 1.0)
+        cells = np.asarray(vel) * self.stft_config.frame_period_s / step_deg
+        if np.any(np.abs(cells) > 1.0):
+            raise ValueError(
+                f"{type(self).__name__}: position_velocities_deg_s must move at most one "
+                f"azimuth cell ({step_deg:g} deg) a frame, got {vel!r}"
+            )
+        return cells
+
     def _reset_state(self) -> None:
         super()._reset_state()
         self._heat = self.weights.copy()
+        self._drift_cells = self._drift_per_frame()
+        u_ = self._drift_cells.size
+        #: position weights per velocity layer v_{u,t} (U, D)
+        self.position_layers = np.full((u_, self.grid.size), 1.0 / (u_ * self.grid.size))
         self.position = self.weights.copy()  #: position weights v_t (D,)
 
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
@@ -440,18 +525,56 @@ class DPRTFEG(CGMMLocalizer):
             w = decay_to_uniform(w, cfg.share)  # fixed share (Herbster & Warmuth 1998)
         return w
 
+    def _position_walk(self, dens: np.ndarray | None) -> np.ndarray:
+        """``v_t`` from ``v_{t-1}``: eqs. 5.17-5.19 with the step ``eta_v``, a fixed share and
+        the random walk."""
+        cfg = self.config
+        v = self.position
+        if dens is None:
+            v = decay_to_uniform(v, cfg.silence_rate)
+        else:
+            v = eg_update(v, ratios_from_densities(dens, v), cfg.position_step, cfg.entropy)
+            v = decay_to_uniform(v, cfg.position_share)
+        return spatial_smoothing(v, self.grid, cfg.position_smoothing)
+
+    def _position_step(self, dens: np.ndarray | None) -> np.ndarray:
+        """``v_t = sum_u v_{u,t}`` from the velocity layers ``v_{u,t-1}`` ``(U, D)``: eqs.
+        5.17-5.19 on the layers (:func:`eg_update_layers`) and a fixed share, then each
+        layer's prediction (:func:`drift` at its velocity, the random walk) and the velocity
+        switch."""
+        cfg = self.config
+        layers = self.position_layers
+        n_cells = layers.size
+        if dens is None:
+            layers = (1.0 - cfg.silence_rate) * layers + cfg.silence_rate / n_cells
+        else:
+            ratios = ratios_from_densities(dens, layers.sum(axis=0))
+            layers = eg_update_layers(layers, ratios, cfg.position_step, cfg.entropy)
+            layers = (1.0 - cfg.position_share) * layers + cfg.position_share / n_cells
+        # each layer: drift at its velocity, then the random walk (all layers at once: the
+        # drift and spatial_smoothing of each row)
+        prev, nxt, has_prev, has_next = self.grid.azimuth_neighbours
+        c = self._drift_cells[:, None]
+        src = np.where(c > 0, layers[:, prev] * has_prev, layers[:, nxt] * has_next)
+        layers = (1.0 - np.abs(c)) * layers + np.abs(c) * src
+        coef = cfg.position_smoothing
+        if coef:
+            walked = layers + coef * (layers[:, prev] * has_prev + layers[:, nxt] * has_next)
+            scale = layers.sum(axis=1) / np.maximum(walked.sum(axis=1), _TINY)
+            layers = walked * scale[:, None]
+        u_ = layers.shape[0]
+        if u_ > 1 and cfg.velocity_switch:
+            rho = cfg.velocity_switch
+            layers = (1.0 - rho) * layers + rho * (layers.sum(axis=0) - layers) / (u_ - 1)
+        self.position_layers = layers
+        return layers.sum(axis=0)
+
     def _emit(self, weights: np.ndarray, dens: np.ndarray | None) -> np.ndarray:
         cfg = self.config
         heat = weights
         if cfg.position_step is not None:
-            v = self.position
-            if dens is None:
-                v = decay_to_uniform(v, cfg.silence_rate)
-            else:
-                # eqs. 5.17-5.19 with the step eta_v, then a fixed share
-                v = eg_update(v, ratios_from_densities(dens, v), cfg.position_step, cfg.entropy)
-                v = decay_to_uniform(v, cfg.position_share)
-            v = spatial_smoothing(v, self.grid, cfg.position_smoothing)
+            v = self._position_step(dens) if cfg.position_velocities_deg_s is not None else (
+                self._position_walk(dens))
             self.position = v
             heat = place_presence(v, weights, self.grid, cfg.presence_reach)
         rate = cfg.output_silence_rate
@@ -463,19 +586,21 @@ class DPRTFEG(CGMMLocalizer):
 
 @dataclass(frozen=True)
 class FastEGConfig(EGConfig):
-    """:class:`EGConfig` with the position weights on (``position_step = 0.3``, position
-    smoothing 0.4, share 0.01, presence reach 3 cells), chosen on development seeds of both
-    simulated scene kinds.
+    """:class:`EGConfig` with the position weights on (``position_step = 0.3``, share 0.01,
+    presence reach 3 cells) in five velocity layers (-60, -30, 0, 30 and 60 degrees per
+    second) with a random walk of 0.05 a cell a frame.
 
-    The position weights' spatial smoothing is the random walk that lets their peaks follow a
-    moving talker; it also blurs neighbouring talkers into each other. On a real 4.6 cm array
-    two talkers 45 degrees apart become one peak between them (each pulled 5-8 degrees towards
-    the other). A smoothing of 0.05 resolves them (matched error 2.7 degrees over the shared
-    real recordings) but triples the lag on a moving talker (BENCHMARKS.md, acoustic
-    localization on real arrays): the default keeps the lag.
+    A random walk alone must be wide to let the peaks follow a moving talker (0.4 a cell a
+    frame keeps a talker walking at 30 degrees per second within 10 frames), and so wide a
+    walk blurs talkers close to each other into one peak between them: on a real 4.6 cm
+    array, two talkers 45 degrees apart were each placed 5-8 degrees towards the other. The
+    velocity layers follow the walking talker within 3 frames with a walk of 0.05, which
+    keeps such talkers apart (BENCHMARKS.md, acoustic localization on real arrays).
     """
 
     position_step: float | None = 0.3
+    position_smoothing: float = 0.05
+    position_velocities_deg_s: tuple[float, ...] | None = (-60.0, -30.0, 0.0, 30.0, 60.0)
 
 
 @register_localizer("dprtf-eg-fast")
