@@ -54,18 +54,58 @@ from avtrack.stream.audio import DOAStream  # noqa: E402
 DEFAULT_ROOT = Path(__file__).resolve().parents[2] / "shared" / "data" / "realaudio"
 DEFAULT_METHOD = "dprtf-eg-fast"
 GATE_DEG = 20.0
+MIN_SPEECH_S = 1.0  # simulated talkers who speak less are not counted
 TALKER = re.compile(r"a(-?\d+(?:\.\d+)?)e(-?\d+(?:\.\d+)?)")
 
 
 @dataclass(frozen=True)
 class Recording:
-    path: Path
-    array_path: Path
+    path: Path  # the WAV, or a name for a simulated scene
+    array_path: Path | None  # None: simulated (``scene``)
     talkers: tuple[tuple[float, float], ...]  # (azimuth, elevation) degrees
+    scene: object = None  # a simulated Scene
 
     @property
     def label(self) -> str:
+        if self.scene is not None:
+            return str(self.path)
         return f"{self.path.parent.parent.name}/{self.path.parent.name}/{self.path.stem[-8:]}"
+
+    def load(self) -> tuple[MicArray, np.ndarray]:
+        """The array and the signal ``(n_mics, n_samples)`` at 16 kHz."""
+        if self.scene is not None:
+            return self.scene.array, self.scene.audio  # type: ignore[attr-defined]
+        assert self.array_path is not None
+        array = load_array(self.array_path)
+        return array, read_array_audio(self.path, array, quiet=True)
+
+
+def simulated_recordings(seeds: list[int], duration: float) -> list[Recording]:
+    """``array-talkers`` scenes (:mod:`avtrack.simulate.library`); the talkers who speak at
+    least ``MIN_SPEECH_S`` seconds, at their mean ground-truth direction; labelled with the
+    talkers' distance."""
+    from avtrack.io.scenario import validate_scenario
+    from avtrack.simulate.library import named_scenario
+    from avtrack.simulate.scene import simulate_scene
+
+    out = []
+    for seed in seeds:
+        raw = named_scenario("array-talkers", seed, duration)
+        scene = simulate_scene(validate_scenario(raw))
+        gt = scene.doa
+        talkers = []
+        for pid in np.unique(gt.ids):
+            sel = (gt.ids == pid) & gt.active
+            if np.count_nonzero(sel) * scene.scenario["gt_hop_s"] < MIN_SPEECH_S:
+                continue  # a talker must speak to be found
+            r = np.deg2rad(gt.azimuth_deg[sel])
+            az = float(np.rad2deg(np.arctan2(np.sin(r).mean(), np.cos(r).mean())))
+            talkers.append((az, float(np.mean(gt.elevation_deg[sel]))))
+        pos = np.asarray(raw["people"][0]["motion"]["position"])
+        dist = float(np.linalg.norm(pos - np.asarray(raw["array"]["position"])))
+        out.append(Recording(Path(f"array-talkers s{seed} {dist:.1f} m"), None, tuple(talkers),
+                             scene))
+    return out
 
 
 def find_recordings(root: Path) -> list[Recording]:
@@ -150,7 +190,15 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--min-active", type=int, default=16,
                    help="tracker frames (32 ms) a track must speak to count (default 16)")
     p.add_argument("--markdown", type=Path, help="also write the tables to this file")
+    p.add_argument("--simulated", type=int, nargs="+", metavar="SEED",
+                   help="instead of the recordings, simulated 'array-talkers' scenes of these "
+                   "seeds (the same array, 1-3 talkers at 0.5-2.5 m, the recordings' noise)")
+    p.add_argument("--duration", type=float, default=6.0,
+                   help="seconds per simulated scene (default 6)")
     args = p.parse_args(argv)
+    if args.simulated:
+        return report(simulated_recordings(args.simulated, args.duration), args,
+                      f"Simulated 'array-talkers' scenes, seeds {args.simulated}")
     if not args.root.is_dir():
         print(f"no recordings: {args.root} is not a folder (shared data absent?)",
               file=sys.stderr)
@@ -159,8 +207,13 @@ def main(argv: list[str] | None = None) -> int:
     if not recs:
         print(f"no recordings with talker directions under {args.root}", file=sys.stderr)
         return 2
+    return report(recs, args, f"Real recordings: {len(recs)} files under {args.root}")
+
+
+def report(recs: list[Recording], args: argparse.Namespace, title: str) -> int:
+    """Run every method and tracker on ``recs``; print (and write) the tables."""
     lines = [
-        f"Real recordings: {len(recs)} files under {args.root}; "
+        f"{title}; "
         f"{dt.datetime.now():%Y-%m-%d %H:%M}, {platform.machine()}, Python "
         f"{platform.python_version()}, one BLAS thread.",
         "",
@@ -175,8 +228,7 @@ def main(argv: list[str] | None = None) -> int:
     track_totals = {t: [0, 0, 0, []] for t in args.trackers}  # found, talkers, extra, errs
     rf: dict[str, list[float]] = {m: [] for m in args.methods}
     for rec in recs:
-        array = load_array(rec.array_path)
-        x = read_array_audio(rec.path, array, quiet=True)
+        array, x = rec.load()
         n_t = max(len(r.talkers) for r in recs)
         for m in args.methods:
             s = localizer_scores(rec, array, x, m)

@@ -17,6 +17,8 @@ Built-in arrays (:data:`BUILTIN_ARRAYS`, :func:`builtin_array`)
   mics 1-8 on the ring centred at (0, +0.4, 0), mics 9-16 on the ring centred at (0, -0.4, 0),
   each ring's first mic at azimuth 0 from its centre and the others counter-clockwise every
   45 degrees.
+- ``respeaker4`` -- the ReSpeaker USB 4-mic array: a square of side 45.7 mm, microphone k
+  at azimuth 45 + 90 k degrees from the centre, 5 mm above the board.
 - ``kemar`` -- a binaural dummy head: the two ``ReceiverPosition`` of the MIT KEMAR SOFA file
   (left ear (0, +0.09, 0), right ear (0, -0.09, 0)), ``kind="hrtf"`` with the KEMAR HRIRs.
   ``builtin_array("kemar", hrir=False)`` gives the two ear positions as a free-field pair.
@@ -82,7 +84,12 @@ NAO8_MICS = (1, 3, 4, 5, 8, 10, 11, 12)
 AV163_RADIUS = 0.10
 AV163_CENTRES = ((0.0, 0.4, 0.0), (0.0, -0.4, 0.0))
 
-BUILTIN_ARRAYS = ("nao4", "nao8", "nao12", "nao4-hrir", "av163", "kemar")
+BUILTIN_ARRAYS = ("nao4", "nao8", "nao12", "nao4-hrir", "av163", "kemar", "respeaker4")
+
+#: ``respeaker4`` positions (metres): a 45.7 mm square, microphones counter-clockwise from +x+y.
+RESPEAKER4_POSITIONS = 0.02285 * np.array(
+    [[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]]
+) + np.array([0.0, 0.0, 0.005])
 
 
 @dataclass(frozen=True, eq=False)
@@ -307,6 +314,8 @@ def builtin_array(name: str, hrir: bool | None = None) -> MicArray:
         )
     if name == "av163":
         return MicArray("av163", _av163_positions())
+    if name == "respeaker4":
+        return MicArray("respeaker4", RESPEAKER4_POSITIONS)
     mics = {"nao4": NAO4_MICS, "nao8": NAO8_MICS, "nao12": tuple(range(1, 13))}[name]
     pos = NAO12_POSITIONS[[m - 1 for m in mics]]
     if hrir:

@@ -34,7 +34,7 @@ room:
   dims: [6.0, 5.0, 3.0]     # shoebox, metres
   t60: 0.4                  # seconds; 0 = free field (no reflections)
 array:
-  name: nao4                # nao4 | nao8 | nao12 | av163 | kemar | path/to/array.json
+  name: nao4                # nao4 | nao8 | nao12 | av163 | kemar | respeaker4 | path/to/array.json
   hrir: false               # render with the measured NAO head HRIRs (nao4 only)
   position: [3.0, 1.0, 1.2] # array centre in the room (metres)
   yaw_deg: 90.0             # direction of the array's x axis in the room (ccw from room x)

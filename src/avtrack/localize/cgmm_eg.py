@@ -249,6 +249,44 @@ def place_presence(
     return position * p_w / np.maximum(p_v, _TINY)  # h_d = v_d P_d(w) / P_d(v)
 
 
+def uphill(values: np.ndarray, grid: DirectionGrid) -> np.ndarray:
+    """For each candidate, the local maximum along azimuth (same elevation) that climbing
+    from it reaches: ``(D,)`` indices (each step to the larger neighbour, ties kept)."""
+    prev, nxt, has_prev, has_next = grid.azimuth_neighbours
+    d = np.arange(values.size)
+    vp = np.where(has_prev > 0, values[prev], -np.inf)
+    vn = np.where(has_next > 0, values[nxt], -np.inf)
+    up = np.where((vn > values) & (vn >= vp), nxt, np.where(vp > values, prev, d))
+    for _ in range(max(1, int(np.ceil(np.log2(max(grid.n_azimuths, 2)))) + 1)):
+        up = up[up]  # pointer jumping: log2(n) rounds reach the top of every slope
+    return up
+
+
+def place_presence_by_peak(
+    position: np.ndarray, presence: np.ndarray, grid: DirectionGrid, reach: int
+) -> np.ndarray:
+    """:func:`place_presence` with one scale per peak of ``position``: every candidate on the
+    slopes of a peak ``p`` of ``v`` gets ``h_d = v_d P_p(w) / P_p(v)``, the ratio taken at the
+    peak. ``v``'s shape is kept exactly, so its peaks stay where they are (a ratio that varies
+    across a peak -- the mass of a neighbouring talker within reach -- would tilt it towards
+    that talker).
+
+    Parameters
+    ----------
+    position, presence : ndarray (D,)
+    grid : DirectionGrid
+    reach : int
+
+    Returns
+    -------
+    ndarray (D,), non-negative.
+    """
+    p_w = local_max(local_mass(presence, grid, reach), grid, reach)
+    p_v = local_max(local_mass(position, grid, reach), grid, reach)
+    top = uphill(position, grid)
+    return position * p_w[top] / np.maximum(p_v[top], _TINY)
+
+
 def drift(weights: np.ndarray, grid: DirectionGrid, cells: float) -> np.ndarray:
     """Move the weights ``cells`` azimuth cells along the grid (``|cells| <= 1``; positive:
     towards larger azimuths), sharing each cell's mass between its own and the next cell by
@@ -353,6 +391,10 @@ class EGConfig:
         ``r`` of :func:`place_presence`, in azimuth cells: the masses are summed within ``r``
         cells and the largest taken within ``r`` cells more, so the slow weights may trail a
         peak of ``v_t`` by up to ``2 r`` cells (3 cells: 30 degrees on the default grid).
+    presence_by_peak : bool
+        False: each candidate scaled by the ratio at itself (:func:`place_presence`); True:
+        by the ratio at the peak of ``v_t`` whose slope it is on
+        (:func:`place_presence_by_peak`), which keeps the peaks of ``v_t`` in place.
     min_features : int
         Frames with fewer features are treated as silent (relax to uniform); 20 by default,
         chosen on simulated rooms. The thesis relaxes only when there is no feature at all
@@ -378,6 +420,7 @@ class EGConfig:
     position_velocities_deg_s: tuple[float, ...] | None = None
     velocity_switch: float = 0.01
     presence_reach: int = 3
+    presence_by_peak: bool = False
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
 
     def __post_init__(self) -> None:
@@ -576,7 +619,8 @@ class DPRTFEG(CGMMLocalizer):
             v = self._position_step(dens) if cfg.position_velocities_deg_s is not None else (
                 self._position_walk(dens))
             self.position = v
-            heat = place_presence(v, weights, self.grid, cfg.presence_reach)
+            place = place_presence_by_peak if cfg.presence_by_peak else place_presence
+            heat = place(v, weights, self.grid, cfg.presence_reach)
         rate = cfg.output_silence_rate
         if rate is None:
             return heat

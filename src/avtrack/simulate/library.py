@@ -18,6 +18,12 @@ kinovis-like   a noisy room (fan at 5 dB, diffuse noise at 10 dB SNR), three tal
                and go around the NAO head, two on the recorded Kinovis-MST tracks.
 walkout        2-3 people in front of a 4-microphone array and a camera; each walks out of the
                camera's field of view while the conversation goes on, then comes back.
+array-talkers  1-3 talkers standing still around a small free-field array (the ReSpeaker
+               4-mic square, 45.7 mm) 0.5-2.5 m away and 15-50 degrees above its plane,
+               speaking in short, mostly overlapping turns, in a room of T60 0.2-0.45 s, with the microphones'
+               own incoherent noise at 10 dB below the speech and no diffuse noise: the noise
+               floor, coherence and direct-to-reverberant ratio measured on the real
+               ReSpeaker recordings of the shared data (BENCHMARKS.md).
 =============  ==============================================================================
 """
 
@@ -212,6 +218,36 @@ def walkout(seed: int, duration: float) -> dict:
     }
 
 
+def array_talkers(seed: int, duration: float) -> dict:
+    rng = np.random.default_rng([seed, 5])
+    n = int(rng.integers(1, 4))
+    dims = [float(rng.uniform(5.0, 7.0)), float(rng.uniform(4.0, 6.0)), 3.0]
+    centre = np.array([dims[0] * 0.45, dims[1] * 0.42, 1.0])  # off-centre: no symmetric echoes
+    dist = float(rng.uniform(0.5, 2.5))
+    az = _spread_azimuths(rng, n, 180.0, 40.0) + rng.uniform(-180.0, 180.0)
+    people = []
+    for pid, a in enumerate(az, start=1):
+        el = np.deg2rad(rng.uniform(15.0, 50.0))
+        u = np.array([np.cos(np.deg2rad(a)) * np.cos(el), np.sin(np.deg2rad(a)) * np.cos(el),
+                      np.sin(el)])
+        pos = centre + dist * u
+        pos = np.clip(pos, 0.3, np.asarray(dims) - 0.3)
+        people.append({"id": pid, "motion": _rounded({"type": "seated", "position": pos.tolist(),
+                                                      "sway": 0.0})})
+    return {
+        "name": "array-talkers",
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": _rounded(dims), "t60": round(float(rng.uniform(0.2, 0.45)), 3)},
+        "array": {"name": "respeaker4", "position": centre.tolist(), "yaw_deg": 0.0},
+        "people": people,
+        "speech": {"mode": "turn-taking", "mean_turn": 1.5, "mean_pause": 0.3,
+                   "overlap_prob": 0.7},
+        "noise": {"diffuse_snr_db": None, "fan_snr_db": None},
+        "sensors": {"self_noise_snr_db": 10.0},
+    }
+
+
 def _rounded(value):
     if isinstance(value, dict):
         return {k: _rounded(v) for k, v in value.items()}
@@ -228,6 +264,7 @@ SCENARIOS: dict[str, Callable[[int, float], dict]] = {
     "locata-like": locata_like,
     "kinovis-like": kinovis_like,
     "walkout": walkout,
+    "array-talkers": array_talkers,
 }
 
 
