@@ -20,10 +20,10 @@ walkout        2-3 people in front of a 4-microphone array and a camera; each wa
                camera's field of view while the conversation goes on, then comes back.
 array-talkers  1-3 talkers standing still around a small free-field array (the ReSpeaker
                4-mic square, 45.7 mm) 0.5-2.5 m away and 15-50 degrees above its plane,
-               speaking in short, mostly overlapping turns, in a room of T60 0.2-0.45 s, with the microphones'
-               own incoherent noise at 10 dB below the speech and no diffuse noise: the noise
-               floor, coherence and direct-to-reverberant ratio measured on the real
-               ReSpeaker recordings of the shared data (BENCHMARKS.md).
+               speaking in short, mostly overlapping turns, in a room of T60 0.2-0.45 s,
+               with the microphones' own incoherent noise 10 dB below the speech and no
+               diffuse noise: the noise floor, coherence and direct-to-reverberant ratio
+               measured on the real ReSpeaker recordings of the shared data (BENCHMARKS.md).
 =============  ==============================================================================
 """
 
