@@ -352,14 +352,18 @@ def test_lead_reports_the_constant_velocity_prediction_and_changes_nothing_else(
 def test_fast_map_settings_lower_the_peak_floor_and_the_birth_floor_and_lead():
     # dprtf-eg-fast maps have lower, wider peaks: the option observes the peaks over 1.15/D
     # (not 1.44/D) and lets DOAs down to 0.03 (not 0.05) start a source, 10° (not 20°) from
-    # another, with an activity threshold of 0.032 (not 0.035); the reported direction is the
-    # one predicted 0.2 s ahead (the map's delay); nothing else changes
+    # another, with an activity threshold of 0.032 (not 0.035), an initial observation
+    # concentration of 400 (not 120) and the velocity kept through pauses (0.95 a silent frame,
+    # not 0.8); the reported direction is the one predicted 0.15 s ahead (the map's delay);
+    # nothing else changes
     assert FAST_MAP_CONFIG == dataclasses.replace(
         VonMisesConfig(),
         birth_floor=0.03,
         birth_min_separation_deg=10.0,
         activity_threshold=0.032,
-        lead_s=0.2,
+        kappa_y=400.0,
+        silent_velocity_decay=0.95,
+        lead_s=0.15,
     )
     w = np.array([[0.1, 0.32, 0.1, 0.28]])  # peaks 0.32 and 0.28; 1.15/4 = 0.2875, 1.44/4 = 0.36
     az = np.array([-90.0, 0.0, 90.0, 180.0])
@@ -375,3 +379,30 @@ def test_fast_map_settings_lower_the_peak_floor_and_the_birth_floor_and_lead():
     with pytest.raises(ValueError, match="uniform_floor"):
         heatmap_sequence(w, az, observations="peaks-over-uniform", uniform_floor=-1.0)
     assert isinstance(make_tracker("vonmises", FAST_MAP_CONFIG), VonMisesDOATracker)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_quieter_talker_beside_a_louder_one_keeps_a_track_of_its_own(seed):
+    """Peaks of a louder talker at 0 degrees most frames, and of a quieter one at 45 degrees who
+    speaks every other 0.64 s: the fast-map reading keeps two tracks; with the thesis's initial
+    concentration (120 for a confidence-1 DOA: a peak of 0.05 spreads over about 25 degrees)
+    the louder talker's track takes the quieter one's peaks and no second track is born."""
+
+    def tracks(kappa_y):
+        rng = np.random.default_rng(seed)
+        trk = make_tracker("vonmises", dataclasses.replace(FAST_MAP_CONFIG, kappa_y=kappa_y),
+                           frame_period_s=0.032)
+        for t in range(300):
+            az, w = [], []
+            if rng.random() < 0.8:
+                az.append(rng.normal(0.0, 3.0))
+                w.append(0.065)
+            if (t // 20) % 2 == 1 and rng.random() < 0.8:
+                az.append(rng.normal(45.0, 3.0))
+                w.append(0.05)
+            out = trk.step(np.array(az), np.array(w))
+        return np.sort(out.azimuth_deg)
+
+    got = tracks(FAST_MAP_CONFIG.kappa_y)
+    assert got.size == 2 and abs(got[0]) < 5.0 and abs(got[1] - 45.0) < 5.0
+    assert tracks(120.0).size == 1

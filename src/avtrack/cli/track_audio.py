@@ -137,7 +137,7 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         metavar="FILE.yaml",
         help="tracker parameters (GaussConfig / VonMisesConfig fields) over the defaults for "
         "the localizer's maps; on dprtf-eg-fast maps the trackers report the direction "
-        "predicted 0.2 s ahead (latency compensation; 'lead_s: 0' reports the filtered one)",
+        "predicted 0.15 s ahead (latency compensation; 'lead_s: 0' reports the filtered one)",
     )
     p.add_argument(
         "--plot",

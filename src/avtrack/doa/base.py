@@ -96,17 +96,15 @@ PEAK_FLOOR = 0.05
 UNIFORM_PEAK_FLOOR = 1.44
 
 #: The same multiple for the lower, wider peaks of ``dprtf-eg-fast`` heat maps (1.15 / 72 ≈
-#: 0.016), part of :data:`MAP_READINGS` for that localizer. See BENCHMARKS.md (issue 23,
-#: trackers on ``dprtf-eg-fast`` maps).
+#: 0.016), part of :data:`MAP_READINGS` for that localizer.
 FAST_MAP_UNIFORM_PEAK_FLOOR = 1.15
 
 #: Seconds ahead that trackers report on ``dprtf-eg-fast`` maps (``lead_s`` of both Configs):
-#: the map's peaks trail a moving talker by 14-20 frames of 8 ms (its median lag on benchmark
-#: seeds 0-4, LOCATA-like / Kinovis-like) and the trackers by 8-28; reporting the direction
-#: their dynamics predict 0.2 s ahead brings the trackers' median lag to 4-10 frames on
-#: development seeds 10-15 of both kinds, the value chosen there. BENCHMARKS.md, issue 23,
-#: "latency compensation".
-FAST_MAP_LEAD_S = 0.2
+#: the map's peaks trail a moving talker by 18-21 frames of 8 ms (median lag on simulated
+#: LOCATA-like and Kinovis-like scenes); reporting the direction the trackers' dynamics predict
+#: 0.15 s ahead brings their median lag on LOCATA-like scenes to 8-10 frames (0.2 s overshoots
+#: a talker walking steadily at 30°/s by 2-3°; BENCHMARKS.md, acoustic tracking).
+FAST_MAP_LEAD_S = 0.15
 
 
 @dataclass(frozen=True)
@@ -130,19 +128,21 @@ class MapReading:
 
 #: Tracker settings per localizer whose maps differ from ``dprtf-eg``'s, as field overrides on
 #: the tracker's ``Config`` (other localizers: the ``Config`` defaults with
-#: :data:`DEFAULT_OBSERVATIONS` and :data:`UNIFORM_PEAK_FLOOR`). ``dprtf-eg-fast`` maps
-#: (issue 23) have lower, wider and faster peaks: both trackers take the peaks at or above
-#: 1.15 / D of the block's last frame; the von Mises tracker lets DOAs from 0.03 start a source;
-#: the Gaussian tracker, on peaks rather than whole lobes, uses a smaller observation variance
-#: (0.0006), keeps more of its angular velocity from frame to frame (0.98) and a lower activity
-#: threshold δ (0.02, for the peaks' lower weights). Tuned on development seeds 10-15 of both
-#: scene kinds and checked on benchmark seeds 0-4 (BENCHMARKS.md, issue 23, fifth session).
-#: Both report the direction predicted :data:`FAST_MAP_LEAD_S` ahead by the track's angular
-#: velocity (``lead_s``), which compensates the map's own delay, and the von Mises tracker
-#: lets a source be born 10° from another (as the Gaussian tracker; 20° kept a talker who
-#: reappeared near a stale track unborn) (sixth session). The von Mises tracker's activity
-#: threshold δ is 0.032 (not 0.035): on development seeds 10-15 its LOCATA-like miss rate was
-#: 2.2 points above peak picking's (2 allowed by issue 23), 1.7 at 0.032 (seventh session).
+#: :data:`DEFAULT_OBSERVATIONS` and :data:`UNIFORM_PEAK_FLOOR`). ``dprtf-eg-fast`` maps have
+#: lower, wider and faster peaks: both trackers take the peaks at or above 1.15 / D of the
+#: block's last frame and report the direction predicted :data:`FAST_MAP_LEAD_S` ahead by the
+#: track's angular velocity (``lead_s``: it compensates the map's own delay). The Gaussian
+#: tracker, on peaks rather than whole lobes, uses a smaller observation variance (0.0006),
+#: keeps more of its angular velocity from frame to frame (0.98) and a lower activity threshold
+#: δ (0.02, for the peaks' lower weights). The von Mises tracker lets DOAs from 0.03 start a
+#: source, 10° (not 20°) from another (20° kept a talker who reappeared near a stale track
+#: unborn), is active above δ = 0.032, keeps its angular velocity through short pauses (0.95
+#: of it per silent frame, not 0.8: a talker who pauses while walking goes on walking), and
+#: starts from an observation concentration κ_y of 400
+#: for a confidence-1 DOA (a peak of weight 0.06 then has κ = 24, about 12° of spread; from
+#: 120, about 21°, a quieter talker 45° from a louder one on a small array was drawn into the
+#: louder one's track). Chosen on development seeds 10-15 of both simulated scene kinds and
+#: on the shared real array recordings (BENCHMARKS.md, acoustic tracking).
 FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
     "gauss": {
         "obs_var": 0.0006,
@@ -154,6 +154,8 @@ FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
         "birth_floor": 0.03,
         "birth_min_separation_deg": 10.0,
         "activity_threshold": 0.032,
+        "kappa_y": 400.0,
+        "silent_velocity_decay": 0.95,
         "lead_s": FAST_MAP_LEAD_S,
     },
 }

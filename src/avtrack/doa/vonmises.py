@@ -67,7 +67,7 @@ import numpy as np
 from scipy.special import i0e, i1e
 
 from avtrack.doa.base import (
-    FAST_MAP_LEAD_S,
+    FAST_MAP_OVERRIDES,
     DOATracker,
     SpeakerActivity,
     TrackFrame,
@@ -263,20 +263,11 @@ class VonMisesConfig:
                 )
 
 
-#: Settings for ``dprtf-eg-fast`` heat maps (an option; the defaults are tuned on ``dprtf-eg``):
-#: DOAs down to 0.03 may start a source, 10° (not 20°) from an existing one, a source is active
-#: above δ = 0.032 (not 0.035), and the direction predicted ``FAST_MAP_LEAD_S`` (0.2 s) ahead is
-#: reported; to be used with observations
-#: ``heatmap_sequence(..., "peaks-over-uniform", uniform_floor=FAST_MAP_UNIFORM_PEAK_FLOOR)``
-#: (:data:`avtrack.doa.base.FAST_MAP_UNIFORM_PEAK_FLOOR`). Tuned on development seeds 10-15;
-#: meets issue 23's tracker targets on LOCATA-like scenes, not on Kinovis-like ones (see
-#: BENCHMARKS.md, issue 23, trackers on ``dprtf-eg-fast`` maps).
-FAST_MAP_CONFIG = VonMisesConfig(
-    birth_floor=0.03,
-    birth_min_separation_deg=10.0,
-    activity_threshold=0.032,
-    lead_s=FAST_MAP_LEAD_S,
-)
+#: Settings for ``dprtf-eg-fast`` heat maps: the Config with the overrides of
+#: :data:`avtrack.doa.base.FAST_MAP_OVERRIDES` (where they are explained); to be used with
+#: observations ``heatmap_sequence(..., "peaks-over-uniform",
+#: uniform_floor=FAST_MAP_UNIFORM_PEAK_FLOOR)``.
+FAST_MAP_CONFIG = VonMisesConfig(**FAST_MAP_OVERRIDES["vonmises"])
 
 
 @register_tracker("vonmises")

@@ -632,18 +632,20 @@ class DPRTFEG(CGMMLocalizer):
 class FastEGConfig(EGConfig):
     """:class:`EGConfig` with the position weights on (``position_step = 0.3``, share 0.01,
     presence reach 3 cells) in five velocity layers (-60, -30, 0, 30 and 60 degrees per
-    second) with a random walk of 0.05 a cell a frame.
+    second) with a random walk of 0.07 a cell a frame.
 
     A random walk alone must be wide to let the peaks follow a moving talker (0.4 a cell a
     frame keeps a talker walking at 30 degrees per second within 10 frames), and so wide a
     walk blurs talkers close to each other into one peak between them: on a real 4.6 cm
     array, two talkers 45 degrees apart were each placed 5-8 degrees towards the other. The
-    velocity layers follow the walking talker within 3 frames with a walk of 0.05, which
-    keeps such talkers apart (BENCHMARKS.md, acoustic localization on real arrays).
+    velocity layers follow the walking talker within a few frames with a walk of 0.07, which
+    keeps such talkers apart (chosen between 0.05 and 0.1 on development seeds of the
+    simulated scenes and the shared real recordings: BENCHMARKS.md, acoustic localization on
+    real arrays).
     """
 
     position_step: float | None = 0.3
-    position_smoothing: float = 0.05
+    position_smoothing: float = 0.07
     position_velocities_deg_s: tuple[float, ...] | None = (-60.0, -30.0, 0.0, 30.0, 60.0)
 
 
