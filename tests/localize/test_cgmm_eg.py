@@ -292,3 +292,21 @@ def test_velocity_layers_follow_a_moving_talker_with_a_small_random_walk():
         EGConfig(position_velocities_deg_s=())
     with pytest.raises(ValueError, match="must move at most one azimuth cell"):
         _eg(EGConfig(position_step=0.3, position_velocities_deg_s=(1e6,)))
+
+
+def test_presence_by_peak_keeps_the_position_peaks_in_place():
+    from avtrack.localize.cgmm_eg import place_presence, place_presence_by_peak, uphill
+
+    grid = DirectionGrid.azimuths(45.0)  # 8 cells, circular
+    v = np.array([1.0, 2.0, 3.0, 2.0, 1.0, 5.0, 4.0, 0.5])
+    np.testing.assert_array_equal(uphill(v, grid), [2, 2, 2, 2, 5, 5, 5, 5])
+    # a broad peak of v at cell 2 with the presence mass beside it (cells 4-5)
+    v = np.array([0.5, 3.0, 4.0, 3.9, 0.5, 0.1, 0.1, 0.1])
+    w = np.array([0.0, 0.0, 0.0, 0.0, 5.0, 5.0, 0.0, 0.0])
+    by_peak = place_presence_by_peak(v, w, grid, 1)
+    slope = uphill(v, grid) == 2
+    ratio = by_peak[slope] / v[slope]
+    np.testing.assert_allclose(ratio, ratio[0])  # one scale for the whole slope
+    assert np.argmax(by_peak) == 2
+    # the per-cell ratio tilts the peak towards the presence mass
+    assert np.argmax(place_presence(v, w, grid, 1)) == 3
