@@ -7,10 +7,11 @@ tall) and TUD-Campus (71 frames, 640 × 480), AV16.3 sequence 30 camera 1 (551 f
 - **MOT15**: a detection is a true positive when the optimal one-to-one assignment
   (Hungarian, on IoU) pairs it with a ground-truth box at IoU >= 0.5 (``gt/gt.txt`` rows whose
   "consider" flag is set); recall = TP / ground-truth boxes, precision = TP / detections.
-- **AV16.3**: a detection's head point is within 20 px of a present person's ``posGT``
-  (the mouth) under the optimal one-to-one assignment on distance. The head point of a face
-  box is its centre; of a whole-body box, its centre column at 1/10 of its height from the
-  top (the mouth of a standing adult, whose head is about 1/7.5 of the body).
+- **AV16.3**: a detection's mouth point is within 20 px of a present person's ``posGT``
+  (the mouth) under the optimal one-to-one assignment on distance. The mouth point is the
+  box's centre column at the detector's ``mouth_offset`` of its height from the top (YuNet:
+  0.78); without one, a face box's centre, or 1/10 of a whole-body box from its top (the
+  mouth of a standing adult, whose head is about 1/7.5 of the body).
 - **frames/s**: time spent in ``detect`` alone (decoding excluded), one thread
   (``OMP_NUM_THREADS=1``, ``cv2.setNumThreads(1)``).
 - **Tracking**: ``avtrack track-mot DET.txt --video VIDEO`` on each person detector's
@@ -97,9 +98,9 @@ def ground_truth(video: str, n_frames: int):
     return [gt.boxes[keep & (gt.frames == k + 1)] for k in range(n_frames)]
 
 
-def score_frame(video: str, name: str, boxes: np.ndarray, gt: np.ndarray) -> int:
+def score_frame(video: str, top: float, boxes: np.ndarray, gt: np.ndarray) -> int:
+    """True positives of one frame; ``top``: the mouth below a box's top, in box heights."""
     if video.startswith("AV16.3"):
-        top = 0.5 if name in FACE_DETECTORS else BODY_MOUTH
         pts = np.column_stack([boxes[:, 0] + boxes[:, 2] / 2, boxes[:, 1] + top * boxes[:, 3]])
         d = np.hypot(gt[:, None, 0] - pts[:, 0], gt[:, None, 1] - pts[:, 1])
         return matches(-d, d <= 20.0)
@@ -107,8 +108,7 @@ def score_frame(video: str, name: str, boxes: np.ndarray, gt: np.ndarray) -> int
     return matches(iou, iou >= 0.5)
 
 
-def run_detector(name: str, video: str, frames: list[np.ndarray], stride: int):
-    det = load_detector(name)
+def run_detector(det, frames: list[np.ndarray], stride: int):
     fr, bx, sc = [], [], []
     spent = 0.0
     n = 0
@@ -146,15 +146,17 @@ def main(argv: list[str] | None = None) -> int:
         gts = ground_truth(video, len(frames))
         for name in args.detectors:
             try:
-                dets, fps = run_detector(name, video, frames, args.stride)
+                det = load_detector(name)
             except InputError as exc:
                 print(f"{name:18s} {video:18s} not run: {exc}", flush=True)
                 continue
+            dets, fps = run_detector(det, frames, args.stride)
+            top = getattr(det, "mouth_offset", 0.5 if name in FACE_DETECTORS else BODY_MOUTH)
             tp = n_gt = 0
             for k in range(0, len(frames), args.stride):
                 b = dets.boxes[dets.frames == k + 1]
                 n_gt += len(gts[k])
-                tp += score_frame(video, name, b, gts[k])
+                tp += score_frame(video, top, b, gts[k])
             rec, prec = tp / max(n_gt, 1), tp / max(len(dets), 1)
             mota = idf1 = float("nan")
             if (args.stride == 1 and not args.no_track and not video.startswith("AV16.3")

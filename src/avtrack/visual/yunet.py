@@ -22,6 +22,10 @@ from avtrack.errors import InputError
 class YuNetFaceDetector:
     """Face boxes from YuNet (see the module docstring); score = YuNet's confidence (0-1).
 
+    The mouth (the midpoint of YuNet's two mouth-corner landmarks) lies ``mouth_offset`` =
+    0.78 of the box's height below its top (median over AV16.3 sequence 30, camera 1; 10-90 %:
+    0.74-0.84), which :func:`avtrack.av.av163.track_av163` reads to place the mouth.
+
     Parameters
     ----------
     min_score : float
@@ -44,6 +48,7 @@ class YuNetFaceDetector:
         if not (np.isfinite(upscale) and upscale >= 1.0):
             raise ValueError(f"upscale must be >= 1, got {upscale}")
         self._detect = yuface.detect
+        self.mouth_offset = 0.78
         self.min_score = float(min_score)
         self.upscale = float(upscale)
 
