@@ -1,4 +1,4 @@
-"""Person detectors on video frames, behind one small interface.
+"""Person and face detectors on video frames, behind one small interface.
 
 A detector is any object with ``detect(frame) -> (boxes, scores)``: ``frame`` an
 ``(height, width, 3)`` uint8 BGR image, ``boxes`` an ``(M, 4)`` array of
