@@ -22,6 +22,7 @@ from avtrack.errors import InputError
 from avtrack.io.camera import read_camera_file
 from avtrack.io.mot import write_mot
 from avtrack.io.rttm import write_rttm
+from avtrack.visual.detect import DEFAULT_FACE_DETECTOR, DETECTORS
 
 EXAMPLES = """\
 examples:
@@ -123,8 +124,9 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
                      help="appearance embeddings, one row per --detections row (default: "
                      "colour histograms from --video, or none)")
     rec.add_argument("--detector", metavar="NAME",
-                     help="detector for --video without --detections (hog, the default; "
-                     "haar-face; or module:attribute)")
+                     help="detector for --video without --detections: a built-in one "
+                     f"({', '.join(DETECTORS)}; default {DEFAULT_FACE_DETECTOR}, faces, from "
+                     "the avtrack[detectors] extra) or module:attribute")
     rec.add_argument("--doa", type=Path, metavar="DOA.csv",
                      help="directions computed elsewhere (DOA CSV) instead of localizing "
                      "--audio")
@@ -446,7 +448,7 @@ def run_recording(args: argparse.Namespace) -> int:
     elif video is not None:
         from avtrack.cli.track_mot import detect_in_video
 
-        dets = detect_in_video(args.video, args.detector or "hog", args.quiet)
+        dets = detect_in_video(args.video, args.detector or DEFAULT_FACE_DETECTOR, args.quiet)
     else:
         raise InputError("give --video (detections found in its frames) or --detections")
     if n_frames < 1:

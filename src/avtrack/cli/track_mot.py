@@ -17,6 +17,7 @@ from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.datasets import find_seqinfo, read_seqinfo
 from avtrack.io.mot import read_mot, write_mot
+from avtrack.visual.detect import DEFAULT_PERSON_DETECTOR, DETECTORS
 from avtrack.visual.ovbt import OVBTConfig, image_size_from_detections, track_mot
 
 #: OVBTConfig fields that ``--video`` changes (before ``--config``): the weight of the person
@@ -36,9 +37,10 @@ examples:
   # (thesis eq. 3.5), image size and length from the video
   avtrack track-mot PETS09-S2L1/det/det.txt -o res.txt --video PETS09-S2L1/PETS09-S2L1.avi
 
-  # no detection file: detect people in the frames (OpenCV's HOG people detector, or your
-  # own detector as module:attribute), then track
-  avtrack track-mot -o res.txt --video TUD-Campus.mp4 --detector hog
+  # no detection file: detect people in the frames (the SSDLite pedestrian network by default,
+  # pip install 'avtrack[detectors]'; or --detector hog, or your own as module:attribute),
+  # then track
+  avtrack track-mot -o res.txt --video TUD-Campus.mp4
 
   # the same, and a report: the tracks drawn over the video's own frames (index.html,
   # tracks.webm), scored against SEQ/gt/gt.txt when there is one
@@ -89,9 +91,10 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                      "length from the video")
     p.add_argument("--detector", metavar="NAME",
                    help="without DET.txt: detect people in --video's frames with a built-in "
-                   "detector (hog: OpenCV's HOG people detector, the default; haar-face) or "
-                   "your own as module:attribute (an object or factory with detect(frame) -> "
-                   "(boxes ltwh (M, 4), scores (M,)))")
+                   f"detector ({', '.join(DETECTORS)}; default {DEFAULT_PERSON_DETECTOR}, "
+                   "people walking, from the avtrack[detectors] extra) or your own as "
+                   "module:attribute (an object or factory with detect(frame) -> (boxes ltwh "
+                   "(M, 4), scores (M,)))")
     p.add_argument("--report", type=Path, metavar="DIR",
                    help="with --video: write DIR/index.html and DIR/tracks.webm, the tracks "
                    "drawn over the video's own frames (with the scores and the ground truth "
@@ -206,7 +209,8 @@ def run(args: argparse.Namespace) -> int:
     if args.detections is not None and args.detector is not None:
         raise InputError("--detector detects in the frames: give it without DET.txt")
     if args.detections is None:
-        dets = detect_in_video(args.video, args.detector or "hog", args.quiet)
+        dets = detect_in_video(args.video, args.detector or DEFAULT_PERSON_DETECTOR,
+                               args.quiet)
     else:
         dets = read_mot(args.detections, kind="det")
     appearance = None if args.appearance is None else load_appearance(args.appearance,

