@@ -43,21 +43,13 @@ from typing import Protocol, cast
 import numpy as np
 
 from avtrack.errors import InputError
+from avtrack.visual.frames import check_frame
 
 
 class Detector(Protocol):
     """What a detector does (see the package docstring)."""
 
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-def check_frame(frame: np.ndarray) -> np.ndarray:
-    """``frame`` as an ``(height, width, 3)`` uint8 array; ValueError otherwise."""
-    img = np.asarray(frame)
-    if img.ndim != 3 or img.shape[2] != 3 or img.dtype != np.uint8:
-        raise ValueError(f"frame must be (height, width, 3) uint8 BGR, got {img.shape} "
-                         f"{img.dtype}")
-    return img
 
 
 class HOGPeopleDetector:

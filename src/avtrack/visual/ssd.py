@@ -371,7 +371,7 @@ class SSDLitePersonDetector:
         return self._scene
 
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        from avtrack.visual.detect import check_frame
+        from avtrack.visual.frames import check_frame
 
         img = check_frame(frame)
         b, s = self._run(img)

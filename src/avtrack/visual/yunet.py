@@ -55,7 +55,7 @@ class YuNetFaceDetector:
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         import cv2
 
-        from avtrack.visual.detect import check_frame
+        from avtrack.visual.frames import check_frame
 
         img = check_frame(frame)
         if self.upscale > 1.0:
