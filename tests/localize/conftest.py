@@ -50,3 +50,27 @@ def render_static_scene(az_deg: float, seconds: float = 2.5, seed: int = 0):
 def static_scene():
     """``(array, signal (4, n))`` of the module's scene."""
     return render_static_scene(SOURCE_AZIMUTH_DEG)
+
+
+#: A 4.6 cm square of four microphones (the ReSpeaker 4-mic geometry).
+SQUARE = 0.02285 * np.array(
+    [[1.0, 1.0, 0.0], [-1.0, 1.0, 0.0], [-1.0, -1.0, 0.0], [1.0, -1.0, 0.0]]
+)
+
+
+def render_on_square(sources, t60: float, n: int) -> np.ndarray:
+    """``n`` samples ``(4, n)`` of the :data:`SQUARE` array at (2.5, 2.0, 1.0) in a 5 x 4 x 3 m
+    room of reverberation time ``t60``, hearing ``sources``: ``(azimuth_deg, elevation_deg,
+    distance_m, signal)`` each; normalised to unit standard deviation."""
+    room_dim = np.array([5.0, 4.0, 3.0])
+    absorption, max_order = pra.inverse_sabine(t60, room_dim)
+    room = pra.ShoeBox(room_dim, fs=FS, materials=pra.Material(absorption), max_order=max_order)
+    centre = np.array([2.5, 2.0, 1.0])
+    for az, el, dist, signal in sources:
+        a, e = np.deg2rad(az), np.deg2rad(el)
+        u = np.array([np.cos(a) * np.cos(e), np.sin(a) * np.cos(e), np.sin(e)])
+        room.add_source(centre + dist * u, signal=signal)
+    room.add_microphone_array(pra.MicrophoneArray((centre + SQUARE).T, FS))
+    room.simulate()
+    y = room.mic_array.signals[:, :n]
+    return y / np.std(y)

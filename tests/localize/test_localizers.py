@@ -113,26 +113,14 @@ def test_frames_with_too_few_features_relax_to_uniform(method, static_scene):
 def _two_talkers_on_a_small_array(seed: int = 0):
     """Two talkers 45 degrees apart (180 and 225, 20 and 35 degrees above the plane) at 0.8 m
     from a 4.6 cm square array in a reverberant room, speaking in overlapping bursts."""
-    import pyroomacoustics as pra
-
-    from tests.localize.conftest import FS, bursty_source
+    from tests.localize.conftest import FS, SQUARE, bursty_source, render_on_square
 
     rng = np.random.default_rng(seed)
-    h = 0.02285
-    array = MicArray("square", [[h, h, 0], [-h, h, 0], [-h, -h, 0], [h, -h, 0]])
-    room_dim = np.array([5.0, 4.0, 3.0])
-    absorption, max_order = pra.inverse_sabine(0.3, room_dim)
-    room = pra.ShoeBox(room_dim, fs=FS, materials=pra.Material(absorption), max_order=max_order)
-    centre = np.array([2.5, 2.0, 1.0])
     n = 4 * FS
-    for az, el, shift in ((180.0, 20.0, 0), (225.0, 35.0, 2400)):
-        a, e = np.deg2rad(az), np.deg2rad(el)
-        u = np.array([np.cos(a) * np.cos(e), np.sin(a) * np.cos(e), np.sin(e)])
-        room.add_source(centre + 0.8 * u, signal=np.roll(bursty_source(n, rng), shift))
-    room.add_microphone_array(pra.MicrophoneArray((centre + array.positions).T, FS))
-    room.simulate()
-    y = room.mic_array.signals[:, :n]
-    y = y / np.std(y)
+    sources = [(az, el, 0.8, np.roll(bursty_source(n, rng), shift))
+               for az, el, shift in ((180.0, 20.0, 0), (225.0, 35.0, 2400))]
+    y = render_on_square(sources, 0.3, n)
+    array = MicArray("square", SQUARE)
     return array, y + 0.1 * rng.standard_normal(y.shape)
 
 

@@ -52,23 +52,13 @@ def test_srp_phat_peaks_at_a_plane_wave_direction():
 def _small_array_recording(level: float, noise: float, seed: int = 0):
     """A 4.6 cm square array (ReSpeaker-like) hearing a talker at 120 degrees in a reverberant
     room, with its own incoherent sensor noise; the first 0.5 s is noise only."""
-    from tests.localize.conftest import FS, bursty_source
+    from tests.localize.conftest import FS, SQUARE, bursty_source, render_on_square
 
     rng = np.random.default_rng(seed)
-    h = 0.02285
-    array = MicArray("square", [[h, h, 0], [-h, h, 0], [-h, -h, 0], [h, -h, 0]])
-    room_dim = np.array([5.0, 4.0, 3.0])
-    absorption, max_order = pra.inverse_sabine(0.4, room_dim)
-    room = pra.ShoeBox(room_dim, fs=FS, materials=pra.Material(absorption), max_order=max_order)
-    centre = np.array([2.5, 2.0, 1.0])
-    az = np.deg2rad(120.0)
     src = bursty_source(int(2.5 * FS), rng)
     src[: FS // 2] = 0.0
-    room.add_source(centre + 1.0 * np.array([np.cos(az), np.sin(az), 0.0]), signal=src)
-    room.add_microphone_array(pra.MicrophoneArray((centre + array.positions).T, FS))
-    room.simulate()
-    y = room.mic_array.signals[:, : int(2.5 * FS)]
-    y = level * y / np.std(y)
+    y = level * render_on_square([(120.0, 0.0, 1.0, src)], 0.4, int(2.5 * FS))
+    array = MicArray("square", SQUARE)
     return array, y + level * noise * rng.standard_normal(y.shape)
 
 

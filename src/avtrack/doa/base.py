@@ -84,8 +84,8 @@ OBSERVATION_MODES = ("all", "above-median", "peaks", "peaks-over-uniform")
 #: it is and spreads its activity mass (eq. 5.43) over ±40°. Its direction is then the centroid
 #: of the whole lobe, which trails a moving talker by 10-20 frames of 8 ms and adds about 1° of
 #: error; ``"peaks-over-uniform"`` with ``GaussConfig(obs_var=0.0003)`` removes that, but raises
-#: its miss rate above peak picking's on LOCATA-like scenes (issue 5's criterion), so it is an
-#: option. See BENCHMARKS.md (issue 23, fourth session).
+#: its miss rate above peak picking's on LOCATA-like scenes, so it is an option (see
+#: BENCHMARKS.md).
 DEFAULT_OBSERVATIONS = {"gauss": "above-median", "vonmises": "peaks-over-uniform"}
 
 #: Peaks of a block-mean heat map below this weight are not observations (mode ``"peaks"``).

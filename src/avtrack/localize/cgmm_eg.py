@@ -244,9 +244,16 @@ def place_presence(
     -------
     ndarray (D,), non-negative.
     """
+    return position * presence_ratio(position, presence, grid, reach)
+
+
+def presence_ratio(
+    position: np.ndarray, presence: np.ndarray, grid: DirectionGrid, reach: int
+) -> np.ndarray:
+    """``P_d(w) / P_d(v)`` of :func:`place_presence` ``(D,)``."""
     p_w = local_max(local_mass(presence, grid, reach), grid, reach)
     p_v = local_max(local_mass(position, grid, reach), grid, reach)
-    return position * p_w / np.maximum(p_v, _TINY)  # h_d = v_d P_d(w) / P_d(v)
+    return p_w / np.maximum(p_v, _TINY)  # h_d = v_d P_d(w) / P_d(v)
 
 
 def uphill(values: np.ndarray, grid: DirectionGrid) -> np.ndarray:
@@ -281,10 +288,7 @@ def place_presence_by_peak(
     -------
     ndarray (D,), non-negative.
     """
-    p_w = local_max(local_mass(presence, grid, reach), grid, reach)
-    p_v = local_max(local_mass(position, grid, reach), grid, reach)
-    top = uphill(position, grid)
-    return position * p_w[top] / np.maximum(p_v[top], _TINY)
+    return position * presence_ratio(position, presence, grid, reach)[uphill(position, grid)]
 
 
 def drift(weights: np.ndarray, grid: DirectionGrid, cells: float) -> np.ndarray:
@@ -344,8 +348,8 @@ class EGConfig:
         ``s^2 eta`` times the slope of the likelihood ratios, so sharp weights follow a moving
         talker slowly. Read as the prediction step of a random walk over the candidate
         directions (a fixed share restricted to neighbouring directions), a larger coefficient
-        widens the peaks and roughly halves the lag on moving talkers (0.25: BENCHMARKS.md,
-        issue 23), at a cost in miss rate on LOCATA-like scenes.
+        widens the peaks and roughly halves the lag on moving talkers (0.25: BENCHMARKS.md),
+        at a cost in miss rate on LOCATA-like scenes.
     share : float
         ``alpha`` of a fixed-share step after each EG update, ``w <- (1 - alpha) w + alpha / D``
         (Herbster & Warmuth, "Tracking the best expert", 1998); not in the thesis (0 there).

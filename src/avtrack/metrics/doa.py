@@ -368,7 +368,7 @@ def estimate_lag(
     period_s: float = FRAME_PERIOD_S,
     time_range_s: tuple[float, float] | None = None,
 ) -> LagResult:
-    """The lag of DOA estimates behind the ground truth (issue 23's lag measure).
+    """The lag of DOA estimates behind the ground truth.
 
     The ground truth is shifted later in time by ``s`` frames, ``s = -max_shift_frames ..
     max_shift_frames``, and scored by :func:`evaluate_doa` (thesis §5.5.1) at each shift; the

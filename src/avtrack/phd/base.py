@@ -133,7 +133,7 @@ class PHDConfig:
         stopped. It carries a label at most ``a / (1 - a)`` frames of its last velocity
         further. 1: the constant-velocity model. Default 0.8 (with ``flow_prior="label"``,
         ``beta`` 0.25, 45 (1), 10 seeds, LPF OSPA-T: 1 16.10, 0.9 14.92, 0.8 14.33, 0.5
-        14.49, 0 14.41 (target 15.53); BENCHMARKS.md, issue 24).
+        14.49, 0 14.41 (the paper's 15.53); BENCHMARKS.md).
     marginal_weights : bool
         LPF with ``"proposal"`` weights: weight each particle of a label for the label's
         predicted intensity ``D(m) = sum_j w_j phi(m | m_{k-1}^j)`` (eq. 4 over the parents)
