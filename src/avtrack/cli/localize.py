@@ -24,8 +24,16 @@ from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.doa import read_doa_csv, write_doa_csv
 from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer, peak_table
+from avtrack.localize.grid import elevation_support
 from avtrack.metrics.doa import evaluate_doa, roc_sweep
 from avtrack.viz.plots import plot_heatmap
+
+#: What :func:`~avtrack.localize.grid.elevation_support` means, for the verbose output.
+ELEVATION_HEARING = {
+    "none": "no elevation (a line of microphones or measured HRIRs)",
+    "upper": "elevation but not its sign (a planar array)",
+    "full": "elevation and its sign",
+}
 
 EXAMPLES = """\
 examples:
@@ -209,7 +217,9 @@ def run(args: argparse.Namespace) -> int:
     if args.verbose:
         print(
             f"{args.method} on array {array.name!r} ({array.kind}, {array.n_mics} mics), "
-            f"{grid.size} candidates; {config}"
+            f"{grid.size} candidates ({grid.n_azimuths} azimuths x elevations "
+            f"{', '.join(f'{e:g}' for e in grid.elevation_values)}; the array hears "
+            f"{ELEVATION_HEARING[elevation_support(array)]}); {config}"
         )
         with_obs = np.mean(heat.n_observations > 0) if len(heat) else 0.0
         print(f"frames with features: {100 * with_obs:.1f} %")
