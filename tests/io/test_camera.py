@@ -196,3 +196,16 @@ def test_constructor_rejects_bad_arguments():
         PinholeCamera.from_fov(180.0, 640, 480, [0, 0, 0])
     with pytest.raises(ValueError, match="points must have shape"):
         cam().project(np.zeros((4, 2)))
+
+
+def test_camera_file_names_an_unknown_field_and_the_one_meant(tmp_path):
+    from avtrack.errors import InputError
+    from avtrack.io.camera import read_camera_file
+
+    good = "fx: 500\nfy: 500\ncx: 320\ncy: 240\nwidth: 640\nheight: 480\nposition: [0, 0, 0.05]\n"
+    path = tmp_path / "camera.yaml"
+    path.write_text(good + "yaw: 10\npitch_deg: 0\n")
+    with pytest.raises(InputError, match=r"unknown field\(s\) 'yaw' \(did you mean 'yaw_deg'\?\)"):
+        read_camera_file(path)
+    path.write_text(good + "yaw_deg: 10\npitch_deg: 0\n")
+    assert read_camera_file(path).yaw_deg == 10.0

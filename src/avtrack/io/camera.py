@@ -26,6 +26,7 @@ and ``R`` has rows ``r, d, f`` (forward, right, down; ``r × d = f``).
 
 from __future__ import annotations
 
+import difflib
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -335,4 +336,16 @@ def read_camera_file(path: str | Path) -> PinholeCamera:
         raw = yaml.safe_load(path.read_text())
     except (yaml.YAMLError, UnicodeDecodeError) as exc:
         raise InputError(f"invalid YAML: {str(exc).splitlines()[0]}", path) from None
+    if isinstance(raw, Mapping):
+        unknown = [str(k) for k in raw if k not in _JSON_FIELDS]
+        if unknown:
+            hints = []
+            for k in unknown:
+                close = difflib.get_close_matches(k, _JSON_FIELDS, n=1, cutoff=0.5)
+                hints.append(f"{k!r} (did you mean {close[0]!r}?)" if close else repr(k))
+            raise InputError(
+                f"camera: unknown field(s) {', '.join(hints)}; the fields are "
+                f"{', '.join(_JSON_FIELDS)}",
+                path,
+            )
     return PinholeCamera.from_json(raw, path)
