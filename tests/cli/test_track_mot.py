@@ -145,3 +145,17 @@ def test_track_mot_birth_min_score_option(det_file, tmp_path):
     assert main(["track-mot", str(det_file), "-o", str(out), "--image-size", "640x480", "-q",
                  "--birth-min-score", "2"]) == 0
     assert out.read_text() == ""
+
+
+def test_track_mot_says_which_frame_rate_it_uses_and_where_from(tmp_path, capsys):
+    seq = tmp_path / "SEQ"
+    (seq / "det").mkdir(parents=True)
+    _, dets, _ = crossing_scene(1)
+    write_mot(seq / "det" / "det.txt", dets)
+    (seq / "seqinfo.ini").write_text(
+        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\nframeRate=7\n")
+    det = str(seq / "det" / "det.txt")
+    assert main(["track-mot", det, "-o", str(tmp_path / "a.txt")]) == 0
+    assert "frame rate: 7 fps (from " in capsys.readouterr().out
+    assert main(["track-mot", det, "-o", str(tmp_path / "b.txt"), "--fps", "12.5"]) == 0
+    assert "frame rate: 12.5 fps (from --fps" in capsys.readouterr().out

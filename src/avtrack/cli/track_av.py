@@ -415,6 +415,9 @@ def run_recording(args: argparse.Namespace) -> int:
     if fps is None or not (np.isfinite(fps) and 0 < fps <= 1000):
         raise InputError("--fps: give the frame rate (frames per second) when there is no "
                          "--video" if fps is None else f"--fps must be in (0, 1000], got {fps}")
+    if not args.quiet:
+        source = "--fps" if args.fps is not None else "the video's header"
+        print(f"frame rate: {fps:g} fps (from {source}; --fps sets it)")
     # audio: directions computed elsewhere, or the array's recording localized here
     audio = None
     if args.doa is None and not args.no_audio and (args.audio is None or args.array is None):

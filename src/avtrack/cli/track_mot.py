@@ -202,6 +202,7 @@ def run(args: argparse.Namespace) -> int:
     if args.fps is not None and not (np.isfinite(args.fps) and 0 < args.fps <= 1000):
         raise InputError(f"--fps must be a frame rate in (0, 1000], got {args.fps}")
     fps = args.fps
+    fps_source = "--fps"
     if args.detections is None and args.video is None:
         raise InputError("give DET.txt, or --video (with --detector) to detect in its frames")
     if args.report is not None and args.video is None:
@@ -222,7 +223,8 @@ def run(args: argparse.Namespace) -> int:
 
         video = probe_video(args.video)
         check_against_video(dets, video, args.detections or args.video)
-        fps = fps or video.fps
+        if not fps and video.fps:
+            fps, fps_source = video.fps, "the video's header"
         if config.appearance != "bhattacharyya":
             raise InputError("--video gives colour histograms: the config's appearance must be "
                              f"'bhattacharyya', got {config.appearance!r}", args.config)
@@ -244,7 +246,11 @@ def run(args: argparse.Namespace) -> int:
         if not args.image_size:
             length = info.get("length")  # (an int: read_seqinfo parses it)
             n_frames = None if length is None else int(length)
-        fps = fps or info.get("frame_rate")
+        if not fps and info.get("frame_rate"):
+            fps, fps_source = info["frame_rate"], f"{seqinfo}"
+    if not args.quiet:
+        print(f"frame rate: {fps:g} fps (from {fps_source}; --fps sets it)" if fps else
+              "frame rate: not known, 25 fps assumed (--fps sets it)")
     if len(dets) == 0 and not args.quiet:
         print(f"avtrack: warning: {args.detections or 'the detector'} found no detections; "
               f"writing empty results", file=sys.stderr)
