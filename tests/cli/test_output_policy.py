@@ -129,3 +129,26 @@ def test_reader_gone_from_the_pipe_stops_quietly(tmp_path):
     assert "Traceback" not in err and "BrokenPipeError" not in err, err
     assert proc.returncode == 0
     assert not (tmp_path / "-").exists() and not (Path.cwd() / "-").exists()
+
+
+@pytest.mark.skipif(not Path("/dev/null").exists(), reason="no /dev/null on this system")
+def test_output_to_a_character_device_is_written_through(tmp_path):
+    """``-o /dev/null`` (a device, not a file to replace) is accepted without --force, and
+    stays a device: nothing is renamed onto it."""
+    import os
+    import stat
+
+    from avtrack.io.base import atomic_write, is_char_device
+    from avtrack.io.mot import write_mot
+    from tests.visual.synthetic import crossing_scene
+
+    _, dets, _ = crossing_scene(1)
+    det = tmp_path / "det.txt"
+    write_mot(det, dets)
+    assert main(["track-mot", str(det), "-o", "/dev/null", "--image-size", "640x480",
+                 "-q"]) == 0
+    assert stat.S_ISCHR(os.stat("/dev/null").st_mode) and is_char_device("/dev/null")
+    with atomic_write("/dev/null") as fh:
+        fh.write("discarded\n")
+    assert is_char_device("/dev/null") and not is_char_device(det)
+    assert not list(Path("/dev").glob("null*.tmp"))

@@ -28,6 +28,7 @@ from typing import Any
 
 from avtrack.config import _number_problem, _show, _unknown, read_config_mapping
 from avtrack.errors import InputError
+from avtrack.io.base import is_char_device
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
@@ -253,6 +254,8 @@ def check_outputs(args: argparse.Namespace) -> None:
         folder = name in FOLDER_ARGS or (
             name == "output" and getattr(args, "command", None) in FOLDER_OUTPUTS)
         option = "-o" if name == "output" else f"--{name}"
+        if not folder and is_char_device(out):
+            continue  # /dev/null and other devices take what is written to them
         if out.exists():
             for inp in inputs:
                 try:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -70,6 +71,14 @@ def temp_output(path: Path, suffix: str = ".tmp") -> tuple[int, str]:
     return fd, tmp
 
 
+def is_char_device(path: str | Path) -> bool:
+    """Whether ``path`` is a character device (``/dev/null``, a terminal)."""
+    try:
+        return stat.S_ISCHR(os.stat(path).st_mode)
+    except OSError:
+        return False
+
+
 @contextlib.contextmanager
 def atomic_write(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
     """Open a temporary file next to ``path`` and rename it onto ``path`` on success.
@@ -87,6 +96,12 @@ def atomic_write(path: str | Path, mode: str = "w", **kwargs) -> Iterator[IO]:
     if mode not in ("w", "wb"):
         raise ValueError(f"atomic_write: mode must be 'w' or 'wb', got {mode!r}")
     path = Path(path)
+    if is_char_device(path):
+        # /dev/null, a terminal, a named device: written as it is (there is no file to
+        # replace, and renaming a temporary file onto a device would replace the device)
+        with open(path, mode, **kwargs) as fh:
+            yield fh
+        return
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = temp_output(path)
     try:
