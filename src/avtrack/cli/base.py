@@ -28,7 +28,6 @@ from typing import Any
 
 from avtrack.config import _number_problem, _show, _unknown, read_config_mapping
 from avtrack.errors import InputError
-from avtrack.io.base import is_char_device
 
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
@@ -243,6 +242,8 @@ def check_outputs(args: argparse.Namespace) -> None:
     - The output's location must be creatable: its nearest existing parent is a writable
       folder (not a file).
     """
+    from avtrack.io.base import is_char_device  # (avtrack --help imports no NumPy)
+
     raw = {k: (v.value if isinstance(v, _Unset) else v) for k, v in vars(args).items()}
     values = {k: v for k, v in raw.items() if isinstance(v, Path)}
     inputs = [v for k, v in values.items() if k not in OUTPUT_ARGS and v.is_file()]
