@@ -111,6 +111,17 @@ def test_demo_prints_scores(shared_data, tmp_path, capsys, monkeypatch):
     assert (tmp_path / "demo" / "scores.json").is_file()
 
 
+def _sequence_at_7_fps(tmp_path):
+    """``SEQ/det/det.txt`` of a synthetic crossing with its ``seqinfo.ini`` (7 fps)."""
+    seq = tmp_path / "SEQ"
+    (seq / "det").mkdir(parents=True)
+    _, dets, _ = crossing_scene(1)
+    write_mot(seq / "det" / "det.txt", dets)
+    (seq / "seqinfo.ini").write_text(
+        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\nframeRate=7\n")
+    return seq / "det" / "det.txt"
+
+
 def test_track_mot_frame_rate_from_seqinfo_and_option(tmp_path, monkeypatch):
     """--fps, else seqinfo.ini's frameRate, reaches the tracker; a bad --fps is one line."""
     import avtrack.visual.ovbt as ovbt
@@ -125,13 +136,7 @@ def test_track_mot_frame_rate_from_seqinfo_and_option(tmp_path, monkeypatch):
     monkeypatch.setattr(ovbt, "track_mot", spy)
     import avtrack.cli.track_mot as cli_mod
     monkeypatch.setattr(cli_mod, "track_mot", spy)
-    seq = tmp_path / "SEQ"
-    (seq / "det").mkdir(parents=True)
-    _, dets, _ = crossing_scene(1)
-    write_mot(seq / "det" / "det.txt", dets)
-    (seq / "seqinfo.ini").write_text(
-        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\nframeRate=7\n")
-    det = str(seq / "det" / "det.txt")
+    det = str(_sequence_at_7_fps(tmp_path))
     assert main(["track-mot", det, "-o", str(tmp_path / "a.txt"), "-q"]) == 0
     assert main(["track-mot", det, "-o", str(tmp_path / "b.txt"), "-q", "--fps", "30"]) == 0
     assert seen == [7, 30.0]
@@ -148,13 +153,7 @@ def test_track_mot_birth_min_score_option(det_file, tmp_path):
 
 
 def test_track_mot_says_which_frame_rate_it_uses_and_where_from(tmp_path, capsys):
-    seq = tmp_path / "SEQ"
-    (seq / "det").mkdir(parents=True)
-    _, dets, _ = crossing_scene(1)
-    write_mot(seq / "det" / "det.txt", dets)
-    (seq / "seqinfo.ini").write_text(
-        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\nframeRate=7\n")
-    det = str(seq / "det" / "det.txt")
+    det = str(_sequence_at_7_fps(tmp_path))
     assert main(["track-mot", det, "-o", str(tmp_path / "a.txt")]) == 0
     assert "frame rate: 7 fps (from " in capsys.readouterr().out
     assert main(["track-mot", det, "-o", str(tmp_path / "b.txt"), "--fps", "12.5"]) == 0

@@ -177,7 +177,7 @@ class PHDConfig:
         A birth within this distance (pixels) of a confirmed label that takes no measurement
         of the frame takes that label instead of a new one (LPF; 0: never) — the older label
         is kept; also the reach of a dropped label at a gap of 0 frames (below). Default 120
-        (issue 24, 10 seeds, LPF OSPA-T over the six shared pairs 10.30 with 50, 9.68 with 120;
+        (10 seeds, LPF OSPA-T over the six shared pairs 10.30 with 50, 9.68 with 120;
         sequence 30 camera 1 on detections drawn from the ground truth, 20 seeds, 11.90 and
         11.38; 30 px: 15.10 there on 10 seeds against 14.18; BENCHMARKS.md): a speaker whose
         label died while they were undetected, and who comes back tens of pixels away, keeps

@@ -55,14 +55,16 @@ class _Posterior:
     @property
     def mu(self) -> np.ndarray:
         if self._mu is None:
-            assert self.states is not None  # (made with either the arrays or the states)
+            if self.states is None:
+                raise RuntimeError("_Posterior made without arrays or states")
             self._mu = _read_only(cv_mean(self.states, self.n_vel))
         return self._mu
 
     @property
     def gamma(self) -> np.ndarray:
         if self._gamma is None:
-            assert self.states is not None  # (made with either the arrays or the states)
+            if self.states is None:
+                raise RuntimeError("_Posterior made without arrays or states")
             self._gamma = _read_only(cv_covariance(self.states, self.n_vel))
         return self._gamma
 
@@ -70,7 +72,8 @@ class _Posterior:
     def variances(self) -> np.ndarray:
         """The diagonal ``(N, d)`` of ``gamma``."""
         if self._gamma is None:
-            assert self.states is not None  # (made with either the arrays or the states)
+            if self.states is None:
+                raise RuntimeError("_Posterior made without arrays or states")
             return cv_variance(self.states, self.n_vel)
         return self._gamma.diagonal(0, 1, 2)
 
@@ -260,7 +263,8 @@ class VEMEngine:
         if states is None:
             self.gamma = self.gamma * scale[:, :, None] * scale[:, None, :]  # S Γ S
             return
-        assert self._cv is not None  # (split states only come from the constant-velocity path)
+        if self._cv is None:  # split states only come from the constant-velocity path
+            raise RuntimeError("split posterior states without a constant-velocity model")
         n_vel, k, _ = self._cv
         s_p = scale[:, :k].copy()  # (contiguous: cheaper products)
         s_v = np.zeros(s_p.shape)

@@ -160,7 +160,9 @@ class ColourTemplateDetector:
         sat = np.zeros((gh + 1, gw + 1))
         sat[1:, 1:] = cells.cumsum(0).cumsum(1)
         frac = (sat[wh:, ww:] - sat[:-wh, ww:] - sat[wh:, :-ww] + sat[:-wh, :-ww]) / (ww * wh)
-        assert frac.shape == shape
+        if frac.shape != shape:
+            raise RuntimeError(f"foreground fractions of shape {frac.shape}, expected {shape}: "
+                               "the frame size changed within the video")
         return frac
 
     def detect(self, frame: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
