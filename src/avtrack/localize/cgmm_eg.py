@@ -291,7 +291,7 @@ def place_presence_by_peak(
     return position * presence_ratio(position, presence, grid, reach)[uphill(position, grid)]
 
 
-def drift(weights: np.ndarray, grid: DirectionGrid, cells: float) -> np.ndarray:
+def drift(weights: np.ndarray, grid: DirectionGrid, cells) -> np.ndarray:
     """Move the weights ``cells`` azimuth cells along the grid (``|cells| <= 1``; positive:
     towards larger azimuths), sharing each cell's mass between its own and the next cell by
     linear interpolation, ``w'_d = (1 - |s|) w_d + |s| w_{d - sign(s)}``. Mass that would
@@ -299,18 +299,18 @@ def drift(weights: np.ndarray, grid: DirectionGrid, cells: float) -> np.ndarray:
 
     Parameters
     ----------
-    weights : ndarray (D,)
+    weights : ndarray (..., D)
     grid : DirectionGrid
-    cells : float
+    cells : float or ndarray (...,)
+        One shift for all rows, or one per row of ``weights``.
     """
-    if not -1.0 <= cells <= 1.0:
+    c = np.asarray(cells, dtype=float)
+    if not np.all(np.abs(c) <= 1.0):
         raise ValueError(f"drift: cells must be in [-1, 1], got {cells!r}")
-    if cells == 0:
-        return weights
+    c = c[..., None]
     prev, nxt, has_prev, has_next = grid.azimuth_neighbours
-    src = weights[prev] * has_prev if cells > 0 else weights[nxt] * has_next
-    a = abs(cells)
-    return (1.0 - a) * weights + a * src
+    src = np.where(c > 0, weights[..., prev] * has_prev, weights[..., nxt] * has_next)
+    return (1.0 - np.abs(c)) * weights + np.abs(c) * src
 
 
 def eg_update_layers(
@@ -598,12 +598,10 @@ class DPRTFEG(CGMMLocalizer):
             ratios = ratios_from_densities(dens, layers.sum(axis=0))
             layers = eg_update_layers(layers, ratios, cfg.position_step, cfg.entropy)
             layers = (1.0 - cfg.position_share) * layers + cfg.position_share / n_cells
-        # each layer: drift at its velocity, then the random walk (all layers at once: the
-        # drift and spatial_smoothing of each row)
+        # each layer: drift at its velocity, then the random walk (spatial_smoothing of each
+        # row, all rows at once)
+        layers = drift(layers, self.grid, self._drift_cells)
         prev, nxt, has_prev, has_next = self.grid.azimuth_neighbours
-        c = self._drift_cells[:, None]
-        src = np.where(c > 0, layers[:, prev] * has_prev, layers[:, nxt] * has_next)
-        layers = (1.0 - np.abs(c)) * layers + np.abs(c) * src
         coef = cfg.position_smoothing
         if coef:
             walked = layers + coef * (layers[:, prev] * has_prev + layers[:, nxt] * has_next)
