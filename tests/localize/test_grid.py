@@ -97,7 +97,6 @@ def test_nao_hrir_means(shared_data):
 
 
 def test_elevation_support_follows_the_array_geometry():
-    from avtrack.audio.arrays import MicArray, builtin_array
     from avtrack.localize.grid import ELEVATION_ROWS, elevation_support
 
     line = MicArray("line", [[x, 0.0, 0.0] for x in (-0.05, 0.0, 0.05, 0.1)])
@@ -110,7 +109,11 @@ def test_elevation_support_follows_the_array_geometry():
     assert elevation_support(square) == "upper"
     assert elevation_support(tilted) == "upper"  # a plane in any orientation
     assert elevation_support(cube) == "full"
-    assert elevation_support(builtin_array("nao4", hrir=True)) == "none"
+    irs = np.zeros((2, 4, 8))
+    irs[:, :, 0] = 1.0
+    head = MicArray("head", square.positions, "hrtf",
+                    HRIRSet([0.0, 90.0], [0.0, 30.0], irs, 16000))
+    assert elevation_support(head) == "none"  # measured responses: azimuth only
     grid = DirectionGrid.for_array(square, 10.0)
     assert grid.n_azimuths == 36
     assert tuple(grid.elevation_values) == ELEVATION_ROWS["upper"]
