@@ -33,6 +33,20 @@ def shared_data() -> Path:
 
 
 @pytest.fixture(autouse=True, scope="session")
+def _shared_data_for_the_library():
+    """Tests run in working directories of their own, and the package may be installed away
+    from the checkout, so the library cannot find ``../shared/data`` by itself: point
+    ``$AVTRACK_SHARED_DATA`` at the folder the tests use (when it exists)."""
+    old = os.environ.get("AVTRACK_SHARED_DATA")
+    path = shared_data_dir()
+    if old is None and path.is_dir():
+        os.environ["AVTRACK_SHARED_DATA"] = str(path.resolve())
+    yield
+    if old is None:
+        os.environ.pop("AVTRACK_SHARED_DATA", None)
+
+
+@pytest.fixture(autouse=True, scope="session")
 def _private_cache(tmp_path_factory):
     """Trained mappings are cached under ``$AVTRACK_CACHE``: a fresh folder for the test run,
     never the user's cache."""
