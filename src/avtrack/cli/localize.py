@@ -10,22 +10,22 @@ Optionally draws the heat map (thesis Fig. 5.2 b–e) and scores the peaks again
 from __future__ import annotations
 
 import argparse
-import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from avtrack.audio.arrays import MicArray, load_array
-from avtrack.audio.recording import FS, read_array_audio
+from avtrack.audio.recording import BLOCK_SECONDS, FS, ArrayRecording
 from avtrack.cli import progress
 from avtrack.cli.base import add_array_option, add_clipping_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
-from avtrack.io.doa import read_doa_csv, write_doa_csv
-from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer, peak_table
+from avtrack.io.doa import DOACsvWriter, read_doa_csv
+from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer
 from avtrack.localize.grid import elevation_support
 from avtrack.metrics.doa import evaluate_doa, roc_sweep
+from avtrack.pipelines import localize_recording
 from avtrack.viz.plots import plot_heatmap
 
 #: What :func:`~avtrack.localize.grid.elevation_support` means, for the verbose output.
@@ -121,7 +121,8 @@ rate than 16 kHz is resampled.""",
         "--block-size",
         type=int,
         metavar="N",
-        help="feed the audio in blocks of N samples, as a live stream would",
+        help="read and localize the audio in blocks of N samples (default: 4 s); memory "
+        "stays at one block whatever the recording's length",
     )
     p.add_argument(
         "--plot",
@@ -169,21 +170,13 @@ def make_grid(step_deg: float, elevations: str | None, array: MicArray) -> Direc
     """The candidate grid of ``--grid-step`` and ``--elevations`` (default: the elevations
     ``array`` can tell apart, :meth:`DirectionGrid.for_array`)."""
     try:
-        base = DirectionGrid.azimuths(step_deg)
+        DirectionGrid.azimuths(step_deg)
     except ValueError as exc:
         raise InputError(f"--grid-step: {exc}") from None
-    if elevations is None:
-        return DirectionGrid.for_array(array, step_deg)
     try:
-        values = sorted({float(v) for v in elevations.split(",") if v.strip()})
-        return DirectionGrid(base.azimuth_values, np.asarray(values))
+        return DirectionGrid.from_options(step_deg, elevations, array)
     except ValueError as exc:
-        raise InputError(
-            f"--elevations: expected comma-separated degrees in [-90, 90], got "
-            f"{elevations!r} ({exc})"
-        ) from None
-
-
+        raise InputError(f"--elevations: {exc}") from None
 
 
 def run(args: argparse.Namespace) -> int:
@@ -197,23 +190,27 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("--roc needs --truth GT.csv")
     grid = make_grid(args.grid_step, args.elevations, array)
     truth = read_doa_csv(args.truth) if args.truth is not None else None
-    x = read_array_audio(args.audio, array, args.allow_clipping, args.quiet)
+    block_s = BLOCK_SECONDS if args.block_size is None else args.block_size / FS
+    recording = ArrayRecording(args.audio, array, args.allow_clipping, args.quiet, block_s)
     try:
         localizer = make_localizer(args.method, array, grid, config)
     except (TypeError, ValueError) as exc:
         raise InputError(str(exc), args.config) from None
     threshold = localizer.default_threshold if args.threshold is None else args.threshold
-    t0 = time.perf_counter()
-    heat = localize_signal(localizer, x, args.block_size, args.quiet)
-    elapsed = time.perf_counter() - t0
     floor = threshold if args.floor is None else min(args.floor, threshold)
     if args.roc:
         floor = min(floor, 0.0)
-    table = peak_table(heat, grid, threshold, floor, args.max_peaks, localizer.profile_reduce)
-    write_doa_csv(args.output, table)
+    duration = recording.info.duration_s
+    with DOACsvWriter(args.output) as out, progress.minutes(
+        duration, f"localizing {args.audio.name}", args.quiet
+    ) as update:
+        result = localize_recording(
+            recording, localizer, threshold, floor=floor, max_peaks=args.max_peaks,
+            sink=out.write, keep_table=truth is not None, keep_heat=args.plot is not None,
+            progress=update,
+        )
     if args.plot is not None:
-        plot_heatmap(args.plot, heat, grid, f"{args.method}: {args.audio.name}", truth)
-    duration = x.shape[1] / FS
+        plot_heatmap(args.plot, result.heat, grid, f"{args.method}: {args.audio.name}", truth)
     if args.verbose:
         print(
             f"{args.method} on array {array.name!r} ({array.kind}, {array.n_mics} mics), "
@@ -221,15 +218,16 @@ def run(args: argparse.Namespace) -> int:
             f"{', '.join(f'{e:g}' for e in grid.elevation_values)}; the array hears "
             f"{ELEVATION_HEARING[elevation_support(array)]}); {config}"
         )
-        with_obs = np.mean(heat.n_observations > 0) if len(heat) else 0.0
+        with_obs = result.frames_with_features / max(result.n_frames, 1)
         print(f"frames with features: {100 * with_obs:.1f} %")
     if not args.quiet:
         print(
-            f"localized {len(heat)} frames ({duration:.1f} s) with {args.method}: "
-            f"{int(table.active.sum())} peaks >= {threshold:g} -> {args.output} "
-            f"(real-time factor {elapsed / max(duration, 1e-9):.3f})"
+            f"localized {result.n_frames} frames ({duration:.1f} s) with {args.method}: "
+            f"{result.n_active} peaks >= {threshold:g} -> {args.output} "
+            f"(real-time factor {result.elapsed_s / max(duration, 1e-9):.3f})"
         )
-    if truth is not None:
+    if truth is not None and result.table is not None:
+        table = result.table
         scores = evaluate_doa(table, truth)
         d = scores.as_dict()
         print(

@@ -24,7 +24,7 @@ from __future__ import annotations
 import contextlib
 import sys
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 from tqdm import tqdm
@@ -115,3 +115,27 @@ def activity(desc: str, quiet: bool = False, interval_s: float = 0.5) -> Iterato
         done.set()
         ticker.join()  # no refresh after the bar is closed
         progress.close()
+
+
+@contextlib.contextmanager
+def minutes(
+    duration_s: float, desc: str, quiet: bool = False
+) -> Iterator[Callable[[float], None]]:
+    """A bar of the minutes of a recording processed out of its total; yields the callback
+    that takes the seconds processed so far (a pipeline's ``progress``)."""
+    progress = tqdm(
+        total=round(duration_s / 60.0, 2),
+        desc=desc,
+        unit="min",
+        file=sys.stderr,
+        leave=False,
+        dynamic_ncols=True,
+        bar_format="{desc}: {n:.1f}/{total:.1f} min |{bar}| {elapsed}<{remaining}",
+        disable=not enabled(quiet),
+    )
+
+    def update(seconds: float) -> None:
+        progress.update(round(seconds / 60.0, 2) - progress.n)
+
+    with progress:
+        yield update

@@ -16,6 +16,7 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -27,18 +28,19 @@ from avtrack.cli.base import (
     add_common,
     add_output_option,
 )
+from avtrack.cli.localize import load_method_config, make_grid
 from avtrack.config import load_config
 from avtrack.doa.base import (
     OBSERVATION_MODES,
     TRACKERS,
     DOASequence,
     MapReading,
-    heatmap_sequence,
     make_tracker,
     map_reading,
 )
 from avtrack.errors import InputError
-from avtrack.io.doa import read_doa_csv, write_doa_csv
+from avtrack.io.doa import DOACsvWriter, DOATable, read_doa_csv, write_doa_csv
+from avtrack.pipelines import TrackRun, track_recording
 
 HOP_S = 0.008
 
@@ -156,38 +158,6 @@ array frame, counter-clockwise from x, in (-180, 180].""",
     add_common(p, run)
 
 
-def observations_from_audio(
-    args: argparse.Namespace, observations: str, uniform_floor: float
-) -> tuple[DOASequence, float, float]:
-    """Localize ``args.audio``; returns the tracker's observations, the signal duration and the
-    localization time (seconds)."""
-    from avtrack.audio.arrays import load_array
-    from avtrack.audio.recording import read_array_audio
-    from avtrack.cli.localize import load_method_config, localize_signal, make_grid
-    from avtrack.localize import LOCALIZERS, make_localizer
-    from avtrack.localize.grid import azimuth_profile
-
-    if args.array is None:
-        raise InputError("--array is required to localize AUDIO.wav")
-    if args.method not in LOCALIZERS:
-        raise InputError(f"--method must be one of {sorted(LOCALIZERS)}, got {args.method!r}")
-    array = load_array(args.array)
-    grid = make_grid(args.grid_step, args.elevations, array)
-    x = read_array_audio(args.audio, array, args.allow_clipping, args.quiet)
-    localizer = make_localizer(args.method, array, grid, load_method_config(args.method, None))
-    t0 = time.perf_counter()
-    heat = localize_signal(localizer, x, None, args.quiet)
-    elapsed = time.perf_counter() - t0
-    profile, _ = azimuth_profile(heat.weights, grid, localizer.profile_reduce)
-    seq = heatmap_sequence(
-        profile, grid.azimuth_values, heat.frames, heat.time_s, args.step, observations,
-        uniform_floor=uniform_floor,
-    )
-    return seq, x.shape[1] / localizer.fs, elapsed
-
-
-
-
 def reading_for(args: argparse.Namespace) -> MapReading:
     """The tracker's default reading of the input: of ``--method``'s heat maps for AUDIO.wav,
     of ``dprtf-eg``'s (the ``Config`` defaults) for a ``--doa`` table."""
@@ -207,49 +177,89 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give either AUDIO.wav or --doa DOA.csv, not both")
     truth = read_doa_csv(args.truth) if args.truth is not None else None
     observations = args.observations or reading.observations
-    hop = HOP_S
     if args.doa is not None:
-        table = read_doa_csv(args.doa)
-        try:
-            seq = DOASequence.from_table(table, args.step)
-        except ValueError as exc:
-            raise InputError(str(exc), args.doa) from None
-        if len(seq) > 1:
-            hop = float(np.median(np.diff(seq.time_s))) / args.step
-        duration = float(seq.time_s[-1] + hop) if len(seq) else 0.0
-        t_loc = 0.0
+        tracks, frame_times, elapsed, duration = _track_doa_table(args, config)
+        n_ids, n_active, n_frames = len(np.unique(tracks.ids)), int(tracks.active.sum()), len(
+            frame_times)
         source = args.doa.name
     else:
-        seq, duration, t_loc = observations_from_audio(args, observations, reading.uniform_floor)
+        run_ = _track_audio_file(args, config, observations, keep=truth is not None or bool(
+            args.plot))
+        tracks = run_.table if run_.table is not None else DOATable.empty()
+        frame_times, elapsed, duration = run_.frame_times, run_.elapsed_s, run_.duration_s
+        n_ids, n_active, n_frames = len(run_.track_ids), run_.n_active, run_.n_frames
         source = args.audio.name
-    tracker = make_tracker(args.tracker, config, frame_period_s=args.step * hop)
-    t0 = time.perf_counter()
-    with progress.counting(tracker, "step", len(seq), "tracking", "frame", args.quiet):
-        tracks = tracker.run(seq)
-    t_track = time.perf_counter() - t0
-    write_doa_csv(args.output, tracks)
     if args.plot is not None:
         from avtrack.viz.plots import plot_doa_tracks
 
         plot_doa_tracks(args.plot, tracks, truth, f"{args.tracker}: {source}")
     if not args.quiet:
-        n_ids = len(np.unique(tracks.ids))
-        rf = (t_loc + t_track) / max(duration, 1e-9)
+        rf = elapsed / max(duration, 1e-9)
         print(
-            f"tracked {len(seq)} frames ({duration:.1f} s) with {args.tracker}: {n_ids} "
-            f"track(s), {int(tracks.active.sum())} active estimates -> {args.output} "
-            f"(tracker {len(seq) / max(t_track, 1e-9):.0f} frames/s, real-time factor "
+            f"tracked {n_frames} frames ({duration:.1f} s) with {args.tracker}: {n_ids} "
+            f"track(s), {n_active} active estimates -> {args.output} (real-time factor "
             f"{rf:.3f})"
         )
     if truth is not None:
         from avtrack.metrics.doa_tracking import evaluate_tracks
 
-        d = evaluate_tracks(tracks, truth, frame_times=seq.time_s).as_dict()
+        d = evaluate_tracks(tracks, truth, frame_times=frame_times).as_dict()
         print(
             f"MD {d['MD%']:.1f} %  FA {d['FA%']:.1f} %  MAE {d['MAE']:.2f} deg  "
             f"IDs {d['IDs']}  OSPA(30 deg) {d['OSPA']:.2f} deg  ({d['actual']} "
             f"speaker-frames)"
         )
-    if len(seq) == 0 and not args.quiet:
+    if n_frames == 0 and not args.quiet:
         print("avtrack: warning: no observations; wrote an empty track file", file=sys.stderr)
     return 0
+
+
+def _track_doa_table(
+    args: argparse.Namespace, config: Any
+) -> tuple[DOATable, np.ndarray, float, float]:
+    """Track the DOAs of ``--doa``; writes the tracks, returns them with the frame times, the
+    tracking time and the duration (seconds)."""
+    table = read_doa_csv(args.doa)
+    try:
+        seq = DOASequence.from_table(table, args.step)
+    except ValueError as exc:
+        raise InputError(str(exc), args.doa) from None
+    hop = HOP_S
+    if len(seq) > 1:
+        hop = float(np.median(np.diff(seq.time_s))) / args.step
+    duration = float(seq.time_s[-1] + hop) if len(seq) else 0.0
+    tracker = make_tracker(args.tracker, config, frame_period_s=args.step * hop)
+    t0 = time.perf_counter()
+    with progress.counting(tracker, "step", len(seq), "tracking", "frame", args.quiet):
+        tracks = tracker.run(seq)
+    elapsed = time.perf_counter() - t0
+    write_doa_csv(args.output, tracks)
+    return tracks, seq.time_s, elapsed, duration
+
+
+def _track_audio_file(
+    args: argparse.Namespace, config: Any, observations: str, keep: bool
+) -> TrackRun:
+    """Localize and track ``args.audio`` in blocks, writing the tracks as they come."""
+    from avtrack.audio.arrays import load_array
+    from avtrack.audio.recording import ArrayRecording
+    from avtrack.localize import LOCALIZERS
+    from avtrack.stream import DOAStream
+
+    if args.array is None:
+        raise InputError("--array is required to localize AUDIO.wav")
+    if args.method not in LOCALIZERS:
+        raise InputError(f"--method must be one of {sorted(LOCALIZERS)}, got {args.method!r}")
+    array = load_array(args.array)
+    grid = make_grid(args.grid_step, args.elevations, array)
+    recording = ArrayRecording(args.audio, array, args.allow_clipping, args.quiet)
+    stream = DOAStream(
+        array, method=args.method, tracker=args.tracker, step=args.step,
+        observations=observations, grid=grid,
+        method_config=load_method_config(args.method, None), tracker_config=config,
+    )
+    with DOACsvWriter(args.output) as out, progress.minutes(
+        recording.info.duration_s, f"tracking {args.audio.name}", args.quiet
+    ) as update:
+        return track_recording(recording, stream, sink=out.write, keep_table=keep,
+                               progress=update)

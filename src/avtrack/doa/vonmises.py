@@ -128,8 +128,8 @@ def birth_log_ratio(
     omega: np.ndarray,
     kappa_y: float,
     kappa_d: float,
-    kappa0: float = 0.0,
-    mu0: float = 0.0,
+    kappa0: np.ndarray | float = 0.0,
+    mu0: np.ndarray | float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""Birth statistic of DOA sequences (thesis eqs. 5.60–5.61, appendix A.4).
 
@@ -148,8 +148,8 @@ def birth_log_ratio(
     omega : ndarray (J, L + 1)
         Their confidences.
     kappa_y, kappa_d : float
-    kappa0, mu0 : float
-        Prior of the first state.
+    kappa0, mu0 : float or ndarray (J,)
+        Prior of the first state (one per sequence, or one for all).
 
     Returns
     -------
@@ -167,8 +167,8 @@ def birth_log_ratio(
             f"y and omega must be (J, L + 1) arrays of one shape, got {y.shape} and {omega.shape}"
         )
     j = y.shape[0]
-    k_hat = np.full(j, float(kappa0))
-    mu_hat = np.full(j, float(mu0))
+    k_hat = np.broadcast_to(np.asarray(kappa0, dtype=float), (j,)).copy()
+    mu_hat = np.broadcast_to(np.asarray(mu0, dtype=float), (j,)).copy()
     log_tau = np.zeros(j)
     k_bar = k_hat
     mu_bar = mu_hat
@@ -425,6 +425,32 @@ class VonMisesDOATracker(DOATracker):
             theta = theta + cfg.lead_s * self.nu
         return TrackFrame(self.ids.copy(), np.rad2deg(theta), active, score)
 
+    def _continues_a_track(self, y: np.ndarray, omega: np.ndarray, llr_new: float) -> bool:
+        """Whether the birth sequence ``y`` ``(L + 1,)`` (confidences ``omega``) is better
+        explained by an existing track than by a new source; that track is then re-started
+        on the sequence (same identity) and True is returned.
+
+        The same marginal likelihood as the birth test (eq. 5.61), with the track's
+        distribution as the prior of the first state instead of the uniform one. A silent
+        track's distribution widens (eq. 5.56), and the variational E-Z step (eq. 5.59) scores
+        a wide track's DOAs below clutter, so its talker's return reaches the birth pool: the
+        exact marginal gives it back to the track instead of starting a duplicate beside it.
+        """
+        n = self.n_tracks
+        seq_y = np.broadcast_to(y, (n, y.size))
+        seq_w = np.broadcast_to(omega, (n, omega.size))
+        llr, mu, kappa = birth_log_ratio(
+            seq_y, seq_w, self.kappa_y, self.kappa_d, kappa0=self.kappa, mu0=self.mu
+        )
+        k = int(np.argmax(llr))
+        if llr[k] <= llr_new:
+            return False
+        self.mu[k], self.kappa[k] = mu[k], kappa[k]
+        self.nu[k], self.cov_sv[k] = 0.0, 0.0
+        self.var_v[k] = self.config.birth_velocity_std ** 2
+        self._pool.clear()
+        return True
+
     def _birth(self) -> float:
         """Try a birth from the pooled DOAs; returns the new track's activity statistic
         (0.0 when nobody is born)."""
@@ -439,6 +465,8 @@ class VonMisesDOATracker(DOATracker):
         llr, mu, kappa = birth_log_ratio(y, om, self.kappa_y, self.kappa_d)  # eq. 5.61
         best = int(np.argmax(llr))
         if llr[best] <= cfg.birth_threshold:
+            return 0.0
+        if self.n_tracks and self._continues_a_track(y[best], om[best], float(llr[best])):
             return 0.0
         if self.n_tracks and np.cos(self.mu - mu[best]).max() > self._cos_birth:
             return 0.0  # too close to a tracked source

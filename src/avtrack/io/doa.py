@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import overload
+from typing import Any, overload
 
 import numpy as np
 
@@ -125,6 +125,13 @@ class DOATable:
         z = np.zeros(0)
         return cls(z.astype(np.int64), z, z.astype(np.int64), z, z, z, z.astype(bool))
 
+    @classmethod
+    def concatenate(cls, parts: list[DOATable]) -> DOATable:
+        """The rows of ``parts``, one table after the other."""
+        if not parts:
+            return cls.empty()
+        return cls(*(np.concatenate([getattr(p, name) for p in parts]) for name in _FIELDS))
+
     def select(self, mask: np.ndarray) -> DOATable:
         """Rows where ``mask`` is True (or at the given indices), as a new table."""
         return DOATable(*(getattr(self, name)[mask] for name in _FIELDS))
@@ -142,13 +149,8 @@ def format_doa_row(
     return f"{frame},{time_s:.4f},{track_id},{az:.3f},{el:.3f},{weight:.6g},{int(active)}\n"
 
 
-def write_doa_csv(path: str | Path, table: DOATable) -> None:
-    """Write ``table`` atomically: header, then one row per estimate in table order
-    (:func:`format_doa_row`)."""
-    if not isinstance(table, DOATable):
-        raise TypeError(f"write_doa_csv: table must be a DOATable, got {type(table).__name__}")
-    rows = [DOA_HEADER + "\n"]
-    rows += [
+def _doa_rows(table: DOATable) -> list[str]:
+    return [
         format_doa_row(*row)
         for row in zip(
             table.frames.tolist(), table.time_s.tolist(), table.ids.tolist(),
@@ -156,8 +158,52 @@ def write_doa_csv(path: str | Path, table: DOATable) -> None:
             table.active.tolist(), strict=True,
         )
     ]
-    with atomic_write(path) as fh:
-        fh.writelines(rows)
+
+
+class DOACsvWriter:
+    """A DOA / track CSV written as its rows are produced, atomically: the header, then the
+    rows of each :meth:`write` in order, in a temporary file renamed onto ``path`` when the
+    ``with`` block ends without an error (:func:`~avtrack.io.base.atomic_write`).
+
+    Examples
+    --------
+    >>> with DOACsvWriter("doa.csv") as out:
+    ...     for table in tables:       # DOATable chunks, in frame order
+    ...         out.write(table)
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = path
+        self.rows = 0
+        self._cm = atomic_write(path)
+        self._fh: Any = None
+
+    def __enter__(self) -> DOACsvWriter:
+        self._fh = self._cm.__enter__()
+        self._fh.write(DOA_HEADER + "\n")
+        return self
+
+    def write(self, table: DOATable) -> None:
+        """Append the rows of ``table``."""
+        if not isinstance(table, DOATable):
+            raise TypeError(f"DOACsvWriter.write: expected a DOATable, got {type(table).__name__}")
+        if self._fh is None:
+            raise ValueError("DOACsvWriter.write: use the writer in a 'with' block")
+        self._fh.writelines(_doa_rows(table))
+        self.rows += len(table)
+
+    def __exit__(self, *exc: Any) -> bool | None:
+        self._fh = None
+        return self._cm.__exit__(*exc)
+
+
+def write_doa_csv(path: str | Path, table: DOATable) -> None:
+    """Write ``table`` atomically: header, then one row per estimate in table order
+    (:func:`format_doa_row`)."""
+    if not isinstance(table, DOATable):
+        raise TypeError(f"write_doa_csv: table must be a DOATable, got {type(table).__name__}")
+    with DOACsvWriter(path) as out:
+        out.write(table)
 
 
 def _parse_int(text: str, name: str, path: Path, row: int) -> int:

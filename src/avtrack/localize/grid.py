@@ -111,6 +111,30 @@ class DirectionGrid:
         base = cls.azimuths(step_deg)
         return cls(base.azimuth_values, np.asarray(ELEVATION_ROWS[elevation_support(array)]))
 
+    @classmethod
+    def from_options(
+        cls, step_deg: float, elevations: str | None, array: MicArray
+    ) -> DirectionGrid:
+        """Azimuths every ``step_deg`` at the comma-separated ``elevations`` in degrees
+        (``"0,20,40"``), or at the elevations ``array`` can tell apart when None
+        (:meth:`for_array`).
+
+        Raises
+        ------
+        ValueError
+            A step or an elevation out of range, or text that is not comma-separated numbers.
+        """
+        base = cls.azimuths(step_deg)
+        if elevations is None:
+            return cls.for_array(array, step_deg)
+        try:
+            values = sorted({float(v) for v in elevations.split(",") if v.strip()})
+            return cls(base.azimuth_values, np.asarray(values))
+        except ValueError as exc:
+            raise ValueError(
+                f"expected comma-separated degrees in [-90, 90], got {elevations!r} ({exc})"
+            ) from None
+
     @property
     def n_azimuths(self) -> int:
         return self.azimuth_values.size
