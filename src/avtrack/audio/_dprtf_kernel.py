@@ -4,8 +4,8 @@ Why by hand: each STFT frame updates, for every speech bin, an ``IQ x IQ`` Hermi
 ``R_t = lambda^g R_{t-1} + U_t`` and needs two columns of ``R_t^{-1}`` restricted to the first
 CTF coefficients. With NumPy this is a dozen passes over ``(F_s, IQ, IQ)`` complex arrays per
 frame (gather, scale, outer product, scatter, the copies LAPACK's batched ``zpotrf`` makes)
-plus ``zpotrf`` itself, which is slow for 32 x 32 matrices; on a 2-core machine that was 75 %
-of the localizer's time. No maintained library fuses a per-bin covariance update with a small
+plus ``zpotrf`` itself, which is slow for 32 x 32 matrices; on a 2-core machine that NumPy
+form takes 75 % of the localizer's time. No maintained library fuses a per-bin covariance update with a small
 Cholesky factorisation, so this module does it with Numba: each bin's matrix is updated in
 place (lower triangle only, which is all the factorisation reads) and factorised while it is in
 the CPU cache. :class:`avtrack.audio.dprtf.DPRTFEstimator` uses it when Numba is installed (a
