@@ -25,11 +25,10 @@ Usage::
 
     python benchmarks/bench_phd.py                      # 10 seeds, both filters
     python benchmarks/bench_phd.py --seeds 2 --pairs 45:1 24:1
-    python benchmarks/bench_phd.py --flow-weights none  # weights without eq. 22's flow factor
     python benchmarks/bench_phd.py --vem
     python benchmarks/bench_phd.py --vem --clutter-rate 0.5  # + false alarms, DOA outliers
     python benchmarks/bench_phd.py --set coast_frames=6 birth_mass=0.1  # PHDConfig fields
-    python benchmarks/bench_phd.py --set marginal_weights=false resample_rule=label  # before
+    python benchmarks/bench_phd.py --set marginal_weights=false resample_rule=label
 """
 
 from __future__ import annotations
@@ -134,12 +133,6 @@ def main(argv: list[str] | None = None) -> int:
         help="sequence:camera pairs (default: all six)",
     )
     ap.add_argument("--filters", default="lpf,npf", help="comma-separated filter names")
-    ap.add_argument(
-        "--flow-weights",
-        default="proposal",
-        choices=("proposal", "transition", "gaussian", "none"),
-        help="PHDConfig.flow_weights, for both filters (default: the flow's importance weight)",
-    )
     ap.add_argument("--vem", action="store_true", help="add the visual VEM (OVBT) row")
     ap.add_argument(
         "--clutter-rate",
@@ -161,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     pairs = PAIRS if not args.pairs else [tuple(map(int, p.split(":"))) for p in args.pairs]
     names = args.filters.split(",")
-    config = PHDConfig(flow_weights=args.flow_weights)
+    config = PHDConfig()
     over = {}
     for item in args.set:
         k, v = item.split("=", 1)
@@ -219,8 +212,7 @@ def main(argv: list[str] | None = None) -> int:
         f"{platform.python_version()}, NumPy {np.__version__}, one BLAS thread; "
         f"{args.seeds} seeds; OSPA order {ORDER}, cut-off {CUTOFF:g} px; OSPA-T order "
         f"{ORDER}, cut-off {T_CUTOFF:g} px, label penalty {T_PENALTY:g} px; "
-        f"clutter rate {args.clutter_rate:g}/frame; config overrides {over}; "
-        f"flow_weights={config.flow_weights!r}\n"
+        f"clutter rate {args.clutter_rate:g}/frame; config overrides {over}\n"
     )
     print("Table 1 — OSPA / OSPA-T (px) / labels per true person, mean over frames and seeds\n")
     print("| Seq (Cam) | visual | " + " | ".join(label[c] for c in cols) + " |")

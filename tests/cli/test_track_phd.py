@@ -42,7 +42,7 @@ def test_writes_tracks(main, small, tmp_path, capsys, name):
 
 def test_plot_and_config(main, small, tmp_path):
     cfg = tmp_path / "phd.yaml"
-    cfg.write_text("particles_per_target: 20\nflow_weights: none\n")
+    cfg.write_text("particles_per_target: 20\nflow_prior: transition\n")
     out, fig = tmp_path / "t.csv", tmp_path / "t.png"
     rc = main(["track-phd", str(small), "--seq", "7", "--cam", "2", "-o", str(out),
                "--plot", str(fig), "--config", str(cfg), "-q"])  # fmt: skip

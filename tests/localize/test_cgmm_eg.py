@@ -238,7 +238,7 @@ def _synthetic_lag(config):
 def test_position_weights_follow_a_moving_talker_with_a_short_lag():
     thesis = _synthetic_lag(EGConfig())
     fast = _synthetic_lag(EGConfig(position_step=0.3))
-    assert thesis > 20  # the thesis weights trail the talker (BENCHMARKS.md, issue 23)
+    assert thesis > 20  # the thesis weights trail the talker
     assert fast <= 10
 
 

@@ -4,13 +4,14 @@ Why by hand: each STFT frame updates, for every speech bin, an ``IQ x IQ`` Hermi
 ``R_t = lambda^g R_{t-1} + U_t`` and needs two columns of ``R_t^{-1}`` restricted to the first
 CTF coefficients. With NumPy this is a dozen passes over ``(F_s, IQ, IQ)`` complex arrays per
 frame (gather, scale, outer product, scatter, the copies LAPACK's batched ``zpotrf`` makes)
-plus ``zpotrf`` itself, which is slow for 32 x 32 matrices; on a 2-core machine that was 75 %
-of the localizer's time. No maintained library fuses a per-bin covariance update with a small
-Cholesky factorisation, so this module does it with Numba: each bin's matrix is updated in
-place (lower triangle only, which is all the factorisation reads) and factorised while it is in
-the CPU cache. :class:`avtrack.audio.dprtf.DPRTFEstimator` uses it when Numba is installed (a
-dependency) and falls back to the NumPy form otherwise or with ``AVTRACK_NO_JIT=1``; the tests
-check that both agree. Called uncompiled (plain Python), it gives the same numbers, slowly.
+plus ``zpotrf`` itself, which is slow for 32 x 32 matrices; on a 2-core machine that NumPy form
+takes 75 % of the localizer's time. No maintained library fuses a per-bin covariance update
+with a small Cholesky factorisation, so this module does it with Numba: each bin's matrix is
+updated in place (lower triangle only, which is all the factorisation reads) and factorised
+while it is in the CPU cache. :class:`avtrack.audio.dprtf.DPRTFEstimator` uses it when Numba is
+installed (a dependency) and falls back to the NumPy form otherwise or with
+``AVTRACK_NO_JIT=1``; the tests check that both agree. Called uncompiled (plain Python), it
+gives the same numbers, slowly.
 
 Arithmetic (same as ``DPRTFEstimator._update_cholesky``): with ``v[q, k]`` the PSD vector of
 channel ``k`` at lag position ``q`` (unknown index ``q I + k``), ``S[q, p] = sum_j conj(v[q, j])

@@ -564,7 +564,7 @@ class PersonTracker:
         # A person the camera sees this frame is where its visual track's box is: the
         # direction state, smoothed and sent back through a distance estimate, is a worse
         # image position than the measurement it came from (AV16.3's camera, metres from the
-        # array: 16.9 -> 14.0 px OSPA on sequence 30 camera 1).
+        # array: 14.0 px OSPA on sequence 30 camera 1 with the box, 16.9 without).
         for row, pid in enumerate(self.ids.tolist()):
             if pid in seen_centre and self.unseen_run[row] == 0:
                 px[row] = seen_centre[pid]

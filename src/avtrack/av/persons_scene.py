@@ -43,8 +43,8 @@ AUDIO_PEAK_FLOOR = 0.05
 #: (others: :data:`AUDIO_PEAK_FLOOR`). ``dprtf-eg-fast`` peaks are lower and wider (as the DOA
 #: trackers' :data:`avtrack.doa.base.MAP_READINGS`): 0.035, chosen on development seeds 10-21
 #: of the walkout and meeting scenes (0.03-0.04 within 1 DER point; 0.02 floods the binaural
-#: meeting maps, whose uniform weight is 1/37). See BENCHMARKS.md (direction-space persons
-#: on fast maps).
+#: meeting maps, whose uniform weight is 1/37). See BENCHMARKS.md (direction-space persons,
+#: on ``dprtf-eg-fast`` maps).
 AUDIO_PEAK_FLOORS: dict[str, float] = {"dprtf-eg-fast": 0.035}
 
 

@@ -56,7 +56,7 @@ Output rows: frame,id,x,y (image pixels of the mouth; id -1 when the filter give
 The --config YAML holds PHDConfig fields, e.g.:
   particles_per_target: 50
   sigma_visual: 4.0
-  flow_weights: proposal
+  flow_prior: label
   marginal_weights: true
   resample_rule: population
   association: face

@@ -348,7 +348,7 @@ class EGConfig:
         ``s^2 eta`` times the slope of the likelihood ratios, so sharp weights follow a moving
         talker slowly. Read as the prediction step of a random walk over the candidate
         directions (a fixed share restricted to neighbouring directions), a larger coefficient
-        widens the peaks and roughly halves the lag on moving talkers (0.25: BENCHMARKS.md),
+        widens the peaks and roughly halves the lag on moving talkers (0.25, on development seeds),
         at a cost in miss rate on LOCATA-like scenes.
     share : float
         ``alpha`` of a fixed-share step after each EG update, ``w <- (1 - alpha) w + alpha / D``
@@ -642,8 +642,8 @@ class FastEGConfig(EGConfig):
     array, two talkers 45 degrees apart were each placed 5-8 degrees towards the other. The
     velocity layers follow the walking talker within a few frames with a walk of 0.07, which
     keeps such talkers apart (chosen between 0.05 and 0.1 on development seeds of the
-    simulated scenes and the shared real recordings: BENCHMARKS.md, acoustic localization on
-    real arrays).
+    simulated scenes and the shared real recordings: BENCHMARKS.md, acoustic localization,
+    real microphone-array recordings).
     """
 
     position_step: float | None = 0.3

@@ -20,7 +20,6 @@ from avtrack.io.av163 import IMAGE_SIZE
 from avtrack.phd.likelihood import AVFrame
 from avtrack.registry import Registry
 
-FLOW_WEIGHTS = ("proposal", "transition", "gaussian", "none")
 FLOW_PRIORS = ("transition", "label")
 RESAMPLE_RULES = ("population", "label")
 ASSOCIATIONS = ("face", "phd", "clutter")
@@ -28,8 +27,12 @@ ASSOCIATIONS = ("face", "phd", "clutter")
 
 @dataclass(frozen=True)
 class PHDConfig:
-    """Parameters shared by the AV SMC-PHD filters (state ``[x, y, vx, vy]``, pixels and
-    pixels per frame).
+    """Parameters shared by the AV SMC-PHD filters (Liu et al.; state ``[x, y, vx, vy]``,
+    pixels and pixels per frame).
+
+    Where a default departs from the seed paper the reason is given in a sentence; the
+    measurements behind each choice are in BENCHMARKS.md ("Audio-visual SMC-PHD filters on
+    AV16.3"), the departures from the printed equations in the README.
 
     Attributes
     ----------
@@ -48,9 +51,8 @@ class PHDConfig:
         Survival probability (eq. 4 with the transition as proposal).
     p_detect_audio, p_detect_visual : float
         ``p_D`` of the audio and visual measurements. The seed (§4) uses 0.98; the defaults
-        are the rates measured on the shared AV16.3 pairs (a DOA line within 20 px of a
-        present mouth on 68–96 % of the person-frames, a face point within 15 px on 79–84 %).
-        A fused measurement ``(o, u)`` has ``p_D = p_ring p_breve``, a visual point alone
+        are the detection rates measured on the AV16.3 DOA and face files. A fused
+        measurement ``(o, u)`` has ``p_D = p_ring p_breve``, a visual point alone
         ``(1 - p_ring) p_breve``, a line alone ``p_ring (1 - p_breve)``; no measurement
         ``(1 - p_ring)(1 - p_breve)``.
     clutter_audio, clutter_visual : float
@@ -58,92 +60,53 @@ class PHDConfig:
         clutter intensities ``kappa`` of eqs. 11 and 22 follow in the units of the normalised
         likelihoods: ``kappa_breve = clutter_visual / (W H)`` per pixel^2 (uniform over the
         image), ``kappa_ring = clutter_audio / sqrt(W^2 + H^2)`` per pixel of line offset, and
-        ``kappa_ring kappa_breve`` for a fused pair. The shared DOAs have 0.02–0.21 lines
-        per frame farther than 20 px from every mouth; the face detector 0.0018 false
-        alarms per frame.
+        ``kappa_ring kappa_breve`` for a fused pair.
     sigma_visual, sigma_audio : float
         Standard deviations of the visual likelihood ``N(z; p, sigma_v^2 I)`` (pixel^-2) and of
-        the DOA-line likelihood ``N(n . p - c; 0, sigma_a^2)`` (pixel^-1). Defaults from the
-        shared AV16.3 files: face-detection error (3.2, 1.7) px per axis; distance from the
-        mouth to the nearest DOA line, median 2–6 px, 90th percentile 7–28 px.
+        the DOA-line likelihood ``N(n . p - c; 0, sigma_a^2)`` (pixel^-1), from the errors of
+        the AV16.3 face detections and DOA lines about the annotated mouths.
     weight_audio, weight_visual : float
         Modality weights of eq. 10.
     gate : float
         Association gate in kernel widths (labels of eqs. 15–16, pairing, birth).
     position_std, velocity_std : float
-        Process noise of the constant-velocity model per frame (eq. 1); the ground-truth
-        speed has a standard deviation of 1.3–2.8 px per frame.
+        Process noise of the constant-velocity model per frame (eq. 1).
     motion_correlation : float
         Correlation of the position and velocity noise of one axis
         (:func:`~avtrack.phd.smc_phd.constant_velocity`; ``sqrt(3)/2`` for integrated white
-        acceleration). With it a detection also corrects each particle's velocity in the
-        flow. 0.8 by default (LPF OSPA-T on the six shared pairs, 3 seeds: 11.6 against 12.6
-        with 0).
+        acceleration); with it a detection also corrects each particle's velocity in the flow.
     flow_steps : int
-        Number of pseudo-time steps of the flow (eq. 6–7).
+        Number of pseudo-time steps of the flow (eqs. 6–7).
     flow_step_ratio : float
         Growth ratio of consecutive ``Delta lambda``.
     diffusion : float
-        ``v`` of eq. 7. Default (None): 1 with ``"proposal"`` weights — the diffusion that
-        makes the affine flow carry a Gaussian prior exactly onto its posterior (any value
-        gives valid weights there; 0.3 gave OSPA-T 12.9 against 11.6 on the shared pairs, 3
-        seeds) — and 0.3 with the legacy weights.
-    flow_weights : {"proposal", "transition", "gaussian", "none"}
-        The factor of eq. 22 that makes the flow an importance proposal. ``"proposal"``
-        (default): the importance weight of the flow actually used — for the labelled flow
-        ``phi(m_k | m_{k-1}) / q(m_k | m_{k-1})`` with ``q`` the flow's Gaussian law given
-        the parent (:func:`~avtrack.phd.flow.affine_flow_map`; with ``diffusion = 0`` this is
-        eq. 22's ``|det| phi(m_k) / phi(m_{k|k-1})``); for the per-particle mixture flow of
-        the NPF, whose stochastic version has no density, the deterministic flow
-        (``diffusion`` ignored) with eq. 22's ratio and the exact Jacobian. The legacy
-        choices, not importance weights when ``diffusion > 0``:
-        ``|det(I + Delta lambda grad f)| phi(m_k) / phi(m_{k|k-1})``, with ``phi`` the
-        transition density ``N(F m_{k-1}, Q)`` of the particle's parent (``"transition"``,
-        eq. 22 as written), or the Gaussian prior the flow itself assumes (eq. 9): the
-        particle's label or cluster mean and covariance ``P_{k|k-1}`` (``"gaussian"``); or no
-        factor (``"none"``, eq. 11 as written). Both filters use the same setting.
+        ``v`` of eq. 7 in the labelled flow (the NPF's flow is deterministic). 1 makes the
+        affine flow carry a Gaussian prior exactly onto its posterior; the weights are the
+        flow's importance weights for any value (:func:`~avtrack.phd.flow.affine_flow_map`).
     flow_prior : {"transition", "label"}
         The prior covariance ``P_{k|k-1}`` of eq. 9 in the labelled flow. ``"label"``
-        (default): the weighted covariance of the particles sharing the label, scaled by
-        ``label_prior_scale``, plus ``Q`` (eqs. 18–20; unscaled with the legacy
-        ``flow_weights``). ``"transition"``: the particle's own transition covariance ``Q``;
-        with ``diffusion = 1`` the flow then carries ``N(F m_{k-1}, Q)`` exactly onto the
-        posterior given the parent and the label's Gaussian likelihood, and the
-        ``"proposal"`` weight is that posterior's normaliser (the optimal proposal). With the
-        full label covariance the flow moves each particle by the label-wide Kalman gain, far
-        more than its own transition noise allows, and labels swap at crossings; a quarter of
-        it (the default) keeps the marginal weights even (six shared pairs, 10 seeds: 76
-        resamplings per sequence against 173 with ``"transition"``) but lets a label learn
-        its speaker's velocity, hence ``faceless_velocity_decay``.
+        (default): the weighted covariance of the particles sharing the label (eqs. 18–20)
+        scaled by ``label_prior_scale``, plus ``Q``. ``"transition"``: the particle's own
+        ``Q``; with ``diffusion = 1`` the flow then samples the posterior given the parent
+        and the label's likelihood exactly (the optimal proposal).
     label_prior_scale : float
-        ``beta`` of ``flow_prior="label"``: the prior covariance of eq. 9 is
-        ``beta * Sigma_l + Q``, ``Sigma_l`` the weighted covariance of the label's predicted
-        particles (eqs. 18–20); 1 is the seed's, 0 the transition prior, 0.25 the default.
-        Any ``beta`` gives valid importance weights (the proposal law of the flow run is
-        known).
+        ``beta`` of ``flow_prior="label"``: ``P = beta Sigma_l + Q``. 1 is the seed's, 0 the
+        transition prior; 0.25 by default, because the full label covariance moves each
+        particle by the label-wide gain, far beyond its own transition noise, and labels swap
+        at crossings, while a fraction of it still lets a label learn its speaker's velocity.
     faceless_velocity_decay : float
-        LPF: ``a`` in ``[0, 1]``. A label whose last update had no face point (a DOA line
-        alone, or no measurement; not a label coasting by the occlusion rule) is predicted
-        with its velocity multiplied by ``a`` (``v_k = a v_{k-1}``; the position still moves
-        by ``v_{k-1}``): a mean-reverting velocity (Singer 1970) while the speaker's motion
-        is not observed. A DOA line measures only the direction to the speaker, never the
-        distance along the line, so without it a label that enters a face gap moving keeps
-        moving along the line (sequence 45 camera 1, seed 2: from x = 201 to 313 in 50
-        frames) and is dropped; a speaker without face detections is as likely to have
-        stopped. It carries a label at most ``a / (1 - a)`` frames of its last velocity
-        further. 1: the constant-velocity model. Default 0.8 (with ``flow_prior="label"``,
-        ``beta`` 0.25, 45 (1), 10 seeds, LPF OSPA-T: 1 16.10, 0.9 14.92, 0.8 14.33, 0.5
-        14.49, 0 14.41 (the paper's 15.53); BENCHMARKS.md).
+        LPF, ``a`` in ``[0, 1]`` (not in the seed): a label whose last update had no face
+        point (a DOA line alone, or no measurement; not an occluded label) is predicted with
+        ``v_k = a v_{k-1}``, a mean-reverting velocity (Singer 1970). A DOA line does not
+        measure the distance along the line, so without it a label entering a face gap
+        keeps running along the line; 1 is the constant-velocity model.
     marginal_weights : bool
-        LPF with ``"proposal"`` weights: weight each particle of a label for the label's
-        predicted intensity ``D(m) = sum_j w_j phi(m | m_{k-1}^j)`` (eq. 4 over the parents)
-        against the mixture of the flows of all the label's parents,
-        ``u_i = D(m_i) / sum_j q_j(m_i)`` (:func:`~avtrack.phd.flow.marginal_log_weights`,
-        unbiased, the marginal particle filter's weight) instead of the per-parent
-        ``w_i phi(m_i | m_{k-1}^i) / q_i(m_i)``; every particle of a label that takes a
-        measurement then flows to it and carries eq. 11's missed-detection term as well.
-        Default True (six shared pairs, 2 seeds: 173 resamplings per sequence against 456
-        with the per-parent weight, same OSPA within the seeds' spread).
+        LPF: weight each particle of a label for the label's predicted intensity
+        ``D(m) = sum_j w_j phi(m | m_{k-1}^j)`` (eq. 4 over the parents) against the mixture
+        of the flows of all its parents, ``u_i = D(m_i) / sum_j q_j(m_i)``
+        (:func:`~avtrack.phd.flow.marginal_log_weights`; the marginal particle filter's
+        unbiased weight) instead of the per-parent ``w_i phi(m_i | m_{k-1}^i) / q_i(m_i)``,
+        which carries each parent's own predictive likelihood and degenerates faster.
     resample_rule : {"population", "label"}
         LPF: when to resample. ``"population"`` (default, Algorithm 1): when the ESS of all
         the particles kept falls below ``resample_fraction`` of their number; every label is
@@ -151,37 +114,22 @@ class PHDConfig:
         ESS falls below ``resample_fraction`` of its particles.
     association : {"face", "phd", "clutter"}
         LPF: which label-measurement pairs the association (eqs. 15–16 per label) may use,
-        and how it scores them. ``"clutter"``: only pairs where the label explains the
-        measurement better than clutter (``G_lr > kappa_r``), scored ``log(G_lr / kappa_r)``;
-        a new speaker whose birth (mass ``birth_mass``) gives ``G_lr < kappa_r`` on the next
-        detection then never takes it, is replaced by a fresh birth every frame and is not
-        confirmed until it stands still (under 0.5 false alarms per frame, ``kappa`` six times
-        higher, a face alone can never confirm a birth: ``birth_mass p_D max h < kappa``).
-        ``"phd"``: every gated pair, scored by the measurement's factor in the PHD update,
-        ``log((kappa_r + G_lr) / kappa_r)`` (eq. 11: the label keeps
-        ``G_lr / (kappa_r + G_lr)`` of the measurement, however small, so a birth accumulates
-        evidence over frames). ``"face"`` (default): ``"phd"`` for measurements with a face
-        point, ``"clutter"`` for a DOA line alone (a line crosses the whole image and cannot
-        give a birth; fed weakly by lines, lost labels linger and come back as false speakers).
-        Six shared pairs, 3 seeds, LPF OSPA clean / at 0.5 false alarms per frame:
-        ``"face"`` 7.12 / 8.76 (× 1.23), ``"clutter"`` 7.17 / 9.48 (× 1.32); ``"phd"`` on
-        24 (1) and 24 (2) at 0.5: 7.98 and 10.47, against 7.36 and 8.16 (``"face"``) and
-        8.87 and 9.29 (``"clutter"``).
+        and how it scores them. ``"clutter"``: only pairs with ``G_lr > kappa_r``, scored
+        ``log(G_lr / kappa_r)`` (a birth whose mass gives ``G_lr < kappa_r`` never takes its
+        speaker's next detection). ``"phd"``: every gated pair, scored by the measurement's
+        factor in eq. 11, ``log((kappa_r + G_lr) / kappa_r)``, so a birth gathers evidence
+        over frames. ``"face"`` (default): ``"phd"`` for measurements with a face point,
+        ``"clutter"`` for a DOA line alone (a line crosses the whole image: fed weakly by
+        lines, lost labels would linger and come back as false speakers).
     coast_frames : int
         A confirmed speaker (label weight once ``>= xi``) is still reported, at its particles'
-        mean, for up to this many frames in which its weight stays below ``xi`` (missed
-        detections); its particles are kept meanwhile (LPF). Default 0: on the shared pairs
-        (3 seeds) LPF OSPA-T is 11.6 with 0, 12.3 with 3 and 6 frames, and grows with more
-        (the coasted estimate drifts); the label itself survives gaps by relinking.
+        mean, for up to this many frames in which its weight stays below ``xi`` (LPF). 0 by
+        default: the coasted estimate drifts, and the label itself survives gaps by relinking.
     relabel_distance : float
         A birth within this distance (pixels) of a confirmed label that takes no measurement
-        of the frame takes that label instead of a new one (LPF; 0: never) — the older label
-        is kept; also the reach of a dropped label at a gap of 0 frames (below). Default 120
-        (10 seeds, LPF OSPA-T over the six shared pairs 10.30 with 50, 9.68 with 120;
-        sequence 30 camera 1 on detections drawn from the ground truth, 20 seeds, 11.90 and
-        11.38; 30 px: 15.10 there on 10 seeds against 14.18; BENCHMARKS.md): a speaker whose
-        label died while they were undetected, and who comes back tens of pixels away, keeps
-        the label; which of several labels in reach a birth takes is ``relink_rule``'s.
+        of the frame takes that label instead of a new one (LPF; 0: never; not in the seed,
+        whose labels are new at every birth); also the reach of a dropped label at a gap of
+        0 frames (below).
     relink_frames, relink_speed : int, float
         A confirmed label dropped (its weight gone) is remembered for ``relink_frames``
         frames at the position where it was last confirmed; a birth within
@@ -192,24 +140,20 @@ class PHDConfig:
         Which dropped (or confirmed, unmeasured) label a birth takes when several are in
         reach (LPF). ``"likelihood"`` (default): the one under whose spread since it was
         dropped the birth is most likely — an isotropic Gaussian about its last confirmed
-        position with standard deviation ``reach / 2`` (the reach above is two standard
-        deviations), normalised, so a longer gap spreads a label thinner rather than making it
-        more attractive; ``"reach"``: the smallest ``distance / reach`` (previous rule, which
-        lets old labels, with the larger reach, win over recent nearer ones).
+        position with standard deviation ``reach / 2``, normalised, so a longer gap spreads a
+        label thinner rather than making it more attractive; ``"reach"``: the smallest
+        ``distance / reach`` (old labels, with the larger reach, win over recent nearer ones).
     relink_gate : float
         ``"likelihood"``: a label is a candidate within this many standard deviations
         (``reach / 2``) of the birth; 2 (default) is the reach of ``"reach"``.
     ambiguity_ratio : float
-        LPF, occlusion rule (:meth:`~avtrack.phd.lpf.LPFSMCPHD._ambiguous`): when the best
-        assignment of the frame's faces to the labels (eq. 12 with the visual likelihood) is
-        less than this many times more likely than the best one without one of its
-        (confirmed label, face) pairs, and the two differ only in confirmed labels, those
-        labels take no measurement on the frame (``p_D = 0``: two speakers crossing with one
-        face detected cannot be told apart) and coast on their transitions. 1: never.
-        Default 6 (sequence 45, cameras 1–3, 4 seeds, and sequence 30 from its video, 8
-        seeds, LPF OSPA-T: 1 (no rule) 17.5 / 12.1 / 10.0 and 16.8; 6: 14.8 / 9.6 / 14.0 and
-        16.8; 20: 13.9 / 12.3 / 12.4 and 18.8 — with 20 a speaker who stops abruptly beside
-        another coasts on past them).
+        LPF, occlusion rule (not in the seed; :meth:`~avtrack.phd.lpf.LPFSMCPHD._ambiguous`):
+        when the best assignment of the frame's faces to the labels (eq. 12 with the visual
+        likelihood) is less than this many times more likely than the best one without one
+        of its (confirmed label, face) pairs, and the two differ only in confirmed labels,
+        those labels take no measurement on the frame (``p_D = 0``) and coast on their
+        transitions: two speakers crossing with one face detected cannot be told apart.
+        1: never.
     occlusion_frames : int
         LPF: a label coasts by the occlusion rule for at most this many frames in a row
         (0: never).
@@ -245,8 +189,7 @@ class PHDConfig:
     motion_correlation: float = 0.8
     flow_steps: int = 10
     flow_step_ratio: float = 1.2
-    diffusion: float | None = None
-    flow_weights: str = "proposal"
+    diffusion: float = 1.0
     flow_prior: str = "label"
     label_prior_scale: float = 0.25
     faceless_velocity_decay: float = 0.8
@@ -292,13 +235,8 @@ class PHDConfig:
             v = getattr(self, name)
             if not (np.isfinite(v) and v > 0):
                 raise ValueError(f"PHDConfig: {name} must be a finite number > 0, got {v!r}")
-        if self.diffusion is not None and not (np.isfinite(self.diffusion)
-                                               and self.diffusion >= 0):
-            raise ValueError(
-                f"PHDConfig: diffusion must be a finite number >= 0, got {self.diffusion!r}"
-            )
-        for name in ("weight_audio", "weight_visual", "relabel_distance", "relink_speed",
-                     "label_prior_scale"):
+        for name in ("diffusion", "weight_audio", "weight_visual", "relabel_distance",
+                     "relink_speed", "label_prior_scale"):
             v = getattr(self, name)
             if not (np.isfinite(v) and v >= 0):
                 raise ValueError(f"PHDConfig: {name} must be a finite number >= 0, got {v!r}")
@@ -311,10 +249,6 @@ class PHDConfig:
             raise ValueError(
                 f"PHDConfig: extraction_threshold must be in (0, 1), got "
                 f"{self.extraction_threshold!r}"
-            )
-        if self.flow_weights not in FLOW_WEIGHTS:
-            raise ValueError(
-                f"PHDConfig: flow_weights must be one of {FLOW_WEIGHTS}, got {self.flow_weights!r}"
             )
         if not -1 < self.motion_correlation < 1:
             raise ValueError(
@@ -357,15 +291,6 @@ class PHDConfig:
             raise ValueError(
                 f"PHDConfig: image_size must be (width, height) > 0, got {self.image_size!r}"
             )
-
-
-    @property
-    def v(self) -> float:
-        """``v`` of eq. 7: ``diffusion``, or when it is None 1 with ``"proposal"`` weights and
-        0.3 with the legacy ones."""
-        if self.diffusion is not None:
-            return float(self.diffusion)
-        return 1.0 if self.flow_weights == "proposal" else 0.3
 
 
 @dataclass(frozen=True)

@@ -2,8 +2,7 @@
 
 Every particle carries a *track label* (the birth it descends from) and, on each frame, the
 fused measurement its label is associated with — its audio label ``l_ring`` and visual label
-``l_breve`` are the two parts ``(o_r, u_r)`` of that measurement — instead of a cluster. With
-the default ``flow_weights="proposal"``:
+``l_breve`` are the two parts ``(o_r, u_r)`` of that measurement — instead of a cluster:
 
 - each label takes at most one fused measurement and each measurement at most one label
   (eqs. 15–16 per label: an assignment maximising ``sum log((kappa_r + G_lr) / kappa_r)``,
@@ -39,13 +38,6 @@ the default ``flow_weights="proposal"``:
 - a speaker is a label whose weight on its measurement (eq. 25) is at least ``xi``, at its
   particles' weighted mean (eq. 24); resampling follows Algorithm 1's ESS test over all the
   particles (``resample_rule``), each label resampled on its own. No clustering.
-
-The legacy ``flow_weights`` ("transition", "gaussian", "none") keep the seed's per-particle
-labels with eq. 17's random ``p_D`` drop, eqs. 18–20's covariance, peak-1 kernels with the
-seed's ``kappa`` and eq. 22's factor as printed (not an importance weight when
-``diffusion > 0``). Deviations there, as before: the normaliser ``G`` of eq. 23 sums over all
-particles labelled with a part of the same fused measurement, and the label-(0, 0) weight of
-eq. 22 keeps the factor ``w_{k|k-1}`` of eq. 11.
 """
 
 from __future__ import annotations
@@ -54,7 +46,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from avtrack.phd.base import register_phd_filter
-from avtrack.phd.flow import affine_flow, affine_flow_map, log_gaussian, marginal_log_weights
+from avtrack.phd.flow import affine_flow_map, log_gaussian, marginal_log_weights
 from avtrack.phd.likelihood import AVFrame, audio_information, visual_information
 from avtrack.phd.smc_phd import (
     STATE_DIM,
@@ -63,31 +55,26 @@ from avtrack.phd.smc_phd import (
     SMCPHDFilter,
     Update,
     log_pair_norm,
-    log_transition_ratio,
     measurement_model,
     systematic_resample,
     weighted_moments,
 )
 
-_BOTH, _AUDIO, _VISUAL = 0, 1, 2
 #: The seed's clutter terms (§4: kappa_ring = kappa_breve = 0.0035), in the unit of kernels that
-#: peak at 1; used by the legacy ``flow_weights`` choices only.
-SEED_KAPPA = 0.0035  # which parts of the fused measurement a particle keeps
+#: peak at 1: the background of the NPF's mixture flow.
+SEED_KAPPA = 0.0035
 
 
 def label_information(
-    frame: AVFrame, measurement: np.ndarray, kind: np.ndarray, sigma_visual: float,
-    sigma_audio: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    frame: AVFrame, measurement: np.ndarray, sigma_visual: float, sigma_audio: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Quadratic form of the eq. 21 log-likelihood of label groups.
 
     Parameters
     ----------
     frame : AVFrame
     measurement : ndarray (G,) int
-        Fused measurement (row of ``frame.pairs``) of each group.
-    kind : ndarray (G,) int
-        0: both parts, 1: the audio part only, 2: the visual part only.
+        Fused measurement (row of ``frame.pairs``) of each group; both of its parts are used.
 
     Returns
     -------
@@ -96,8 +83,8 @@ def label_information(
     """
     g = len(measurement)
     pairs = frame.pairs[measurement]
-    use_a = (pairs[:, 0] > 0) & (kind != _VISUAL)
-    use_v = (pairs[:, 1] > 0) & (kind != _AUDIO)
+    use_a = pairs[:, 0] > 0
+    use_v = pairs[:, 1] > 0
     A = np.zeros((g, STATE_DIM, STATE_DIM))
     b = np.zeros((g, STATE_DIM))
     B = np.zeros((g, STATE_DIM, 3))
@@ -297,8 +284,6 @@ class LPFSMCPHD(SMCPHDFilter):
         speaker whose detections jumped out of its gate, or who reappears after a miss, keeps
         its identity)."""
         cfg = self.config
-        if cfg.flow_weights != "proposal":
-            return super()._birth(frame, pred)
         self._occluded, self._withheld = set(), set()
         self._assoc = self._associate(frame, pred)
         if not self._occluded:
@@ -352,108 +337,118 @@ class LPFSMCPHD(SMCPHDFilter):
 
     def _update(self, frame: AVFrame, pred: Prediction, births: Births) -> Update:
         cfg = self.config
-        pairs = frame.pairs
-        n_r = frame.n_pairs
-        n = len(pred.weights)
-        p_d, kappa, p_miss, log_na, log_nv = measurement_model(frame, cfg)
-        legacy = cfg.flow_weights != "proposal"
-        pa, pv = cfg.p_detect_audio, cfg.p_detect_visual
+        meas = self._label_measurements(frame, pred)
+        moved, log_rho = self._flow(frame, pred, meas)
+        if cfg.marginal_weights and not np.all(meas >= 0):
+            self._idle_log_weights(pred, meas < 0, log_rho)
+        weights, on_measurement = self._weights(frame, pred, moved, meas, log_rho)
+        # the labels whose velocity decays in the next prediction (faceless_velocity_decay)
+        faced = {t for t, r in self._assoc.items() if frame.pairs[r, 1] > 0}
+        self._faceless = set(np.unique(pred.tids).tolist()) - faced - self._occluded
+        return self._extract(moved, weights, pred.tids, meas, on_measurement)
 
-        # eqs. 15-16: the best gated measurement (eq. 17's random drop: legacy weights only;
-        # with "proposal" weights every gated particle flows to its measurement and missed
-        # detections enter through p_D of eq. 22, see the module docstring)
+    def _label_measurements(self, frame: AVFrame, pred: Prediction) -> np.ndarray:
+        """Each predicted particle's fused measurement (row of ``frame.pairs``, -1 for none):
+        its label's (eqs. 15–16, :meth:`_associate`). With ``marginal_weights`` every particle
+        of the label flows to it (one proposal family per label), else only the particles
+        gated on it; missed detections enter through ``p_D`` of eq. 22."""
+        n = len(pred.weights)
         meas = np.full(n, -1, dtype=np.int64)
-        kind = np.full(n, _BOTH, dtype=np.int64)
-        if n and n_r and not legacy:  # the label's measurement, where the particle is gated
+        if n and frame.n_pairs:
             r_of = np.array([self._assoc.get(int(t), -1) for t in pred.tids], dtype=np.int64)
             has = r_of >= 0
-            if not cfg.marginal_weights:  # else the whole label flows (one proposal family)
+            if not self.config.marginal_weights:
                 has[has] = pred.gated[np.flatnonzero(has), r_of[has]]
             meas[has] = r_of[has]
-        elif n and n_r:
-            score = np.where(pred.gated, pred.log_audio + pred.log_visual, -np.inf)
-            best = np.argmax(score, axis=1)
-            found = np.isfinite(score[np.arange(n), best])
-            if legacy:
-                keep_a = (self.rng.random(n) < pa) & (pairs[best, 0] > 0)  # delta_{r(1)}(p_D)
-                keep_v = (self.rng.random(n) < pv) & (pairs[best, 1] > 0)
-                found &= keep_a | keep_v
-                kind = np.where(keep_a & keep_v, _BOTH, np.where(keep_a, _AUDIO, _VISUAL))
-            meas[found] = best[found]
+        return meas
+
+    def _flow(
+        self, frame: AVFrame, pred: Prediction, meas: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The labelled flow (eqs. 6–9) of the particles with a measurement, and its
+        importance log-weights.
+
+        The flow of each label is one Gaussian map (:func:`~avtrack.phd.flow.affine_flow_map`)
+        whose law given the parent is known, ``m_k ~ N(M F m_{k-1} + c, M Q M^T + Sigma)``;
+        the log-weight is ``log phi(m_k | m_{k-1}) - log q(m_k | m_{k-1})`` or, with
+        ``marginal_weights``, the label's mixture weight
+        (:func:`~avtrack.phd.flow.marginal_log_weights`) less ``log w_{k|k-1}``.
+
+        Returns
+        -------
+        moved : ndarray (N, 4)
+            The particles after the flow (unmoved where ``meas`` is -1).
+        log_rho : ndarray (N,)
+            Importance log-weights (0 where ``meas`` is -1).
+        """
+        cfg = self.config
         det = meas >= 0
         moved = pred.states.copy()
-        log_rho = np.zeros(n)
-        if np.any(det):
-            key = meas[det] * 3 + kind[det]
-            ukey, group = np.unique(key, return_inverse=True)
-            # eqs. 18-20: covariance of the predicted particles sharing both labels
-            _, mean, cov = weighted_moments(pred.states[det], pred.weights[det], group, len(ukey))
-            if legacy:
-                P = cov + self.Q  # eqs. 18-20, the label's spread (Q: a floor)
-            elif cfg.flow_prior == "label":  # the same, scaled by label_prior_scale
-                P = label_flow_prior(cov, self.Q, cfg.label_prior_scale)
-            else:  # the particle's own transition density N(F m_{k-1}, Q)
-                P = np.broadcast_to(self.Q, cov.shape)
-            prior_info = np.linalg.inv(P)
-            A, b, B = label_information(
-                frame, ukey // 3, ukey % 3, cfg.sigma_visual, cfg.sigma_audio
-            )
-            x = pred.states[det]
-            if legacy:
-                # eqs. 6-9 with the label likelihood of eq. 21, step by step
-                m_k, log_det = affine_flow(x, group, prior_info, A, b, B, self.steps,
-                                           cfg.v, self.rng)  # fmt: skip
-            else:
-                # the same flow as one Gaussian map per label (same law), whose density given
-                # the parent is known: m_k ~ N(M F m_{k-1} + c, M Q M^T + Sigma)
-                M, c, Sig = affine_flow_map(prior_info, A, b, B, self.steps, cfg.v)
-                m_k = np.einsum("nij,nj->ni", M[group], x) + c[group]
-                if cfg.v > 0:
-                    L = np.linalg.cholesky(Sig + 1e-9 * np.eye(STATE_DIM))
-                    eps = self.rng.standard_normal(x.shape)
-                    m_k += np.einsum("nij,nj->ni", L[group], eps)
-                # importance weight of the flow: phi(m_k | m_{k-1}) / q(m_k | m_{k-1})
-                q_mean = np.einsum("nij,nj->ni", M[group], pred.mean[det]) + c[group]
-                q_cov = M @ self.Q @ M.transpose(0, 2, 1) + Sig + 1e-9 * np.eye(STATE_DIM)
-                log_rho[det] = log_gaussian(m_k, pred.mean[det], self.Q) - log_gaussian(
-                    m_k, q_mean, q_cov[group]
-                )
-                if cfg.marginal_weights:  # one proposal per parent, weighted for the label's
-                    # predicted intensity sum_j w_j phi(m | m_{k-1}^j) (eqs. 4 and 22)
-                    log_w = np.log(np.maximum(pred.weights[det], 1e-300))
-                    log_u = np.empty(len(x))
-                    for g in range(len(ukey)):
-                        sel = group == g
-                        log_u[sel] = marginal_log_weights(
-                            m_k[sel], log_w[sel], pred.mean[det][sel], self.Q, q_mean[sel],
-                            q_cov[g])
-                    log_rho[det] = log_u - log_w  # w_{k|k-1} log_rho gives u
-            moved[det] = m_k
-            # eq. 22: |det(I + dl grad f)| phi(m_k | .) / phi(m_k|k-1 | .)
-            if cfg.flow_weights == "transition":
-                log_rho[det] = log_det + log_transition_ratio(
-                    m_k, pred.states[det], pred.mean[det], self.Q_info
-                )
-            elif cfg.flow_weights == "gaussian":
-                log_rho[det] = log_det + log_transition_ratio(
-                    m_k, pred.states[det], mean[group], prior_info[group]
-                )
+        log_rho = np.zeros(len(meas))
+        if not np.any(det):
+            return moved, log_rho
+        ukey, group = np.unique(meas[det], return_inverse=True)
+        # eqs. 18-20: covariance of the predicted particles sharing the label's measurement
+        _, _, cov = weighted_moments(pred.states[det], pred.weights[det], group, len(ukey))
+        if cfg.flow_prior == "label":  # scaled by label_prior_scale, Q a floor
+            P = label_flow_prior(cov, self.Q, cfg.label_prior_scale)
+        else:  # the particle's own transition density N(F m_{k-1}, Q)
+            P = np.broadcast_to(self.Q, cov.shape)
+        prior_info = np.linalg.inv(P)
+        A, b, B = label_information(frame, ukey, cfg.sigma_visual, cfg.sigma_audio)
+        x = pred.states[det]
+        # eqs. 6-9 with the label likelihood of eq. 21, as one Gaussian map per label, whose
+        # density given the parent is known: m_k ~ N(M F m_{k-1} + c, M Q M^T + Sigma)
+        M, c, Sig = affine_flow_map(prior_info, A, b, B, self.steps, cfg.diffusion)
+        m_k = np.einsum("nij,nj->ni", M[group], x) + c[group]
+        if cfg.diffusion > 0:
+            L = np.linalg.cholesky(Sig + 1e-9 * np.eye(STATE_DIM))
+            eps = self.rng.standard_normal(x.shape)
+            m_k += np.einsum("nij,nj->ni", L[group], eps)
+        # importance weight of the flow: phi(m_k | m_{k-1}) / q(m_k | m_{k-1})
+        q_mean = np.einsum("nij,nj->ni", M[group], pred.mean[det]) + c[group]
+        q_cov = M @ self.Q @ M.transpose(0, 2, 1) + Sig + 1e-9 * np.eye(STATE_DIM)
+        log_rho[det] = log_gaussian(m_k, pred.mean[det], self.Q) - log_gaussian(
+            m_k, q_mean, q_cov[group]
+        )
+        if cfg.marginal_weights:  # one proposal per parent, weighted for the label's
+            # predicted intensity sum_j w_j phi(m | m_{k-1}^j) (eqs. 4 and 22)
+            log_w = np.log(np.maximum(pred.weights[det], 1e-300))
+            log_u = np.empty(len(x))
+            for g in range(len(ukey)):
+                sel = group == g
+                log_u[sel] = marginal_log_weights(
+                    m_k[sel], log_w[sel], pred.mean[det][sel], self.Q, q_mean[sel], q_cov[g])
+            log_rho[det] = log_u - log_w  # w_{k|k-1} log_rho gives u
+        moved[det] = m_k
+        return moved, log_rho
 
-        if not legacy and cfg.marginal_weights and not np.all(det):
-            # the particles left to the transition (no measurement for their label, or out of
-            # its gate), per label: the same weights with q_j = phi(. | m_{k-1}^j)
-            idle = np.flatnonzero(~det)
-            log_w = np.log(np.maximum(pred.weights[idle], 1e-300))
-            for t in np.unique(pred.tids[idle]):
-                sel = pred.tids[idle] == t
-                mu = pred.mean[idle][sel]
-                log_rho[idle[sel]] = marginal_log_weights(
-                    pred.states[idle][sel], log_w[sel], mu, self.Q, mu, self.Q) - log_w[sel]
+    def _idle_log_weights(self, pred: Prediction, idle: np.ndarray, log_rho: np.ndarray) -> None:
+        """Marginal log-weights, in place in ``log_rho``, of the particles left to the
+        transition (no measurement for their label, ``idle`` (N,) bool), per label: the
+        weights of :meth:`_flow` with ``q_j = phi(. | m_{k-1}^j)``."""
+        idle = np.flatnonzero(idle)
+        log_w = np.log(np.maximum(pred.weights[idle], 1e-300))
+        for t in np.unique(pred.tids[idle]):
+            sel = pred.tids[idle] == t
+            mu = pred.mean[idle][sel]
+            log_rho[idle[sel]] = marginal_log_weights(
+                pred.states[idle][sel], log_w[sel], mu, self.Q, mu, self.Q) - log_w[sel]
+
+    def _weights(
+        self, frame: AVFrame, pred: Prediction, moved: np.ndarray, meas: np.ndarray,
+        log_rho: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """Updated weights (eqs. 21–23) and each particle's weight from its measurement alone
+        (eq. 22's labelled term, which eq. 25 sums), both ``(N,)``."""
+        cfg = self.config
+        pairs = frame.pairs
+        p_d, kappa, p_miss, log_na, log_nv = measurement_model(frame, cfg)
+        det = meas >= 0
         # eq. 21 at the moved particles: the density of the labelled parts
         rho = np.exp(np.clip(log_rho, -500, 500))
         r = meas[det]
-        o = pairs[r, 0] * (kind[det] != _VISUAL)
-        u = pairs[r, 1] * (kind[det] != _AUDIO)
+        o, u = pairs[r, 0], pairs[r, 1]
         pos = moved[det, :2]
         log_h = np.zeros(len(r))
         ha, hv = o > 0, u > 0
@@ -462,31 +457,21 @@ class LPFSMCPHD(SMCPHDFilter):
         log_h[ha] -= 0.5 * (d_a / cfg.sigma_audio) ** 2
         d2_v = np.sum((pos[hv] - frame.visual[u[hv] - 1]) ** 2, axis=1)
         log_h[hv] -= 0.5 * d2_v / cfg.sigma_visual**2
-        if legacy:  # the seed's kernels (peak 1) and p_D of eqs. 22-23
-            pd_i = np.where(ha, pa, 1.0) * np.where(hv, pv, 1.0)
-            kap = np.full(n_r, 2 * SEED_KAPPA)
-            miss = (1 - pa) * (1 - pv)
-        else:  # densities; p_D and kappa of the fused measurement (measurement_model)
-            log_h += ha * log_na + hv * log_nv
-            pd_i, kap, miss = p_d[r], kappa, p_miss
-        num = pd_i * np.exp(log_h) * rho[det] * pred.weights[det]
-        G = np.bincount(r, num, minlength=n_r)  # eq. 23 (over the particles of measurement r)
-        weights = miss * pred.weights * rho  # eq. 22, l_ring = l_breve = 0
+        log_h += ha * log_na + hv * log_nv  # densities; p_D and kappa of the fused measurement
+        num = p_d[r] * np.exp(log_h) * rho[det] * pred.weights[det]
+        G = np.bincount(r, num, minlength=frame.n_pairs)  # eq. 23 (over measurement r)
+        weights = p_miss * pred.weights * rho  # eq. 22, l_ring = l_breve = 0
         if self._occluded:  # p_D = 0 for an occluded label: eq. 22's miss factor is 1
             occ = np.isin(pred.tids, list(self._occluded))
             weights[occ] = pred.weights[occ] * rho[occ]
-        weights[det] = num / (kap[r] + G[r])  # eq. 22, labelled particles
+        weights[det] = num / (kappa[r] + G[r])  # eq. 22, labelled particles
         on_measurement = weights.copy()  # eq. 25 sums the labelled term only
         on_measurement[~det] = 0.0
-        if not legacy and cfg.marginal_weights:
+        if cfg.marginal_weights:
             # eq. 11 for the label's particles, all drawn by its flow: the missed-detection
             # term too, with the same importance weight
-            weights[det] += miss * pred.weights[det] * rho[det]
-        # the labels whose velocity decays in the next prediction (faceless_velocity_decay)
-        faced = {t for t, r in self._assoc.items() if pairs[r, 1] > 0}
-        self._faceless = (set() if legacy
-                          else set(np.unique(pred.tids).tolist()) - faced - self._occluded)
-        return self._extract(moved, weights, pred.tids, meas, on_measurement)
+            weights[det] += p_miss * pred.weights[det] * rho[det]
+        return weights, on_measurement
 
     def _extract(
         self, states: np.ndarray, weights: np.ndarray, tids: np.ndarray, measurement: np.ndarray,

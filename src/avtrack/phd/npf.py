@@ -13,13 +13,10 @@ baseline of ref. [9]).
   of a measurement being the product of the densities of its parts (as eq. 21: the weighted
   mean of eq. 10 would give every particle on a DOA line half the weight of a particle on the
   speaker) with ``p_D`` and ``kappa`` of :func:`~avtrack.phd.smc_phd.measurement_model`,
-  times the flow's proposal factor of eq. 22 as configured by ``PHDConfig.flow_weights``
-  (the same for both filters). Under the default ``"proposal"`` the flow is deterministic
-  (``diffusion`` is not used: the stochastic per-particle flow has no tractable density) and
-  eq. 22's factor uses the exact Jacobian of the flow, so it is an importance weight; the
-  flow's mixture keeps the seed's background ``kappa`` (peak-1 kernels) as its floor. The
-  legacy settings keep peak-1 kernels and the seed's ``kappa`` in the weights too, and update
-  their births on the frame they are drawn.
+  times the flow's proposal factor of eq. 22. The flow is deterministic (``diffusion`` is
+  not used: the stochastic per-particle flow has no tractable density) and eq. 22's factor
+  uses the exact Jacobian of the flow, so it is an importance weight; the flow's mixture
+  keeps the seed's background ``kappa`` (peak-1 kernels) as its floor.
 - Speakers are the centroids of a weighted k-means of the updated particles into
   ``round(sum w_k)`` clusters, weighted by their cluster masses (§2). Identities: none (-1).
 """
@@ -164,10 +161,7 @@ class NPFSMCPHD(SMCPHDFilter):
 
     def _update(self, frame: AVFrame, pred: Prediction, births: Births) -> Update:
         cfg = self.config
-        pairs = frame.pairs
         n = len(pred.weights)
-        pa, pv = cfg.p_detect_audio, cfg.p_detect_visual
-        legacy = cfg.flow_weights != "proposal"
 
         moved = pred.states.copy()
         log_rho = np.zeros(n)
@@ -184,38 +178,21 @@ class NPFSMCPHD(SMCPHDFilter):
             # eq. 10: every particle flows towards the mixture of every kernel within the
             # cluster's gate, over a background (the seed's kappa in the kernels' unit)
             x, floor = pred.states, np.log(2 * SEED_KAPPA)
-            # "proposal": the deterministic flow, whose exact Jacobian makes eq. 22 an
-            # importance weight (the stochastic one has no tractable density)
-            v = cfg.v if legacy else 0.0
+            # the deterministic flow, whose exact Jacobian makes eq. 22 an importance weight
+            # (the stochastic one has no tractable density)
             moved, log_det = mixture_flow(x, prior_info, A, b, log_c, B, self.steps, floor,
-                                          v, self.rng, allowed,
-                                          exact_jacobian=not legacy)  # fmt: skip
-            # the flow's proposal factor, as eq. 22: |det J| phi(m_k | .) / phi(m_k|k-1 | .)
-            if cfg.flow_weights in ("transition", "proposal"):
-                log_rho = log_det + log_transition_ratio(
-                    moved, pred.states, pred.mean, self.Q_info
-                )
-            elif cfg.flow_weights == "gaussian":
-                log_rho = log_det + log_transition_ratio(
-                    moved, pred.states, mean[assign], prior_info
-                )
+                                          0.0, self.rng, allowed,
+                                          exact_jacobian=True)  # fmt: skip
+            # the flow's proposal factor, eq. 22: |det J| phi(m_k | .) / phi(m_k|k-1 | .)
+            log_rho = log_det + log_transition_ratio(moved, pred.states, pred.mean, self.Q_info)
 
         rho = np.exp(np.clip(log_rho, -500, 500))
         w_prior = pred.weights * rho
         tids = pred.tids
-        if legacy:  # the births are updated with the survivors, on the frame they are drawn
-            moved = np.vstack([moved, births.states])
-            w_prior = np.concatenate([w_prior, births.weights])
-            tids = np.concatenate([tids, births.tids])
         log_a, log_v = pair_log_kernels(moved[:, :2], frame, cfg.sigma_visual, cfg.sigma_audio)
-        if legacy:  # the seed's kernels (peak 1), p_D and kappa
-            lik = np.exp(log_a + log_v)
-            p_d = np.where(pairs[:, 0] > 0, pa, 1.0) * np.where(pairs[:, 1] > 0, pv, 1.0)
-            kappa = np.full(frame.n_pairs, 2 * SEED_KAPPA)
-            p_miss = (1 - pa) * (1 - pv)
-        else:  # densities, with p_D and kappa of each fused measurement
-            p_d, kappa, p_miss, log_na, log_nv = measurement_model(frame, cfg)
-            lik = np.exp(log_a + log_v + log_pair_norm(frame, log_na, log_nv))
+        # densities, with p_D and kappa of each fused measurement
+        p_d, kappa, p_miss, log_na, log_nv = measurement_model(frame, cfg)
+        lik = np.exp(log_a + log_v + log_pair_norm(frame, log_na, log_nv))
         weights, _ = phd_update(lik, p_d, p_miss, kappa, w_prior)  # eqs. 11-12
 
         # state extraction by clustering the updated particles (§2)
@@ -225,6 +202,5 @@ class NPFSMCPHD(SMCPHDFilter):
             _, assign = kmeans(moved[:, :2], k, self.rng, weights, self.kmeans_iterations)
             mass, mean, _ = weighted_moments(moved, weights, assign, k)
             ok = mass > 0
-            return Update(moved, weights, tids, mean[ok], mass[ok], np.full(ok.sum(), -1), legacy)
-        return Update(moved, weights, tids, np.zeros((0, STATE_DIM)), np.zeros(0), np.zeros(0),
-                      legacy)
+            return Update(moved, weights, tids, mean[ok], mass[ok], np.full(ok.sum(), -1))
+        return Update(moved, weights, tids, np.zeros((0, STATE_DIM)), np.zeros(0), np.zeros(0))

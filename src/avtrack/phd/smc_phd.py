@@ -329,7 +329,6 @@ class Update:
     speaker_states: np.ndarray  # (J, 4)
     speaker_weights: np.ndarray  # (J,)
     speaker_ids: np.ndarray  # (J,)
-    includes_births: bool = False  # the legacy NPF updates its births with the survivors
 
 
 class SMCPHDFilter(PHDFilter):
@@ -392,12 +391,9 @@ class SMCPHDFilter(PHDFilter):
         if not np.all(np.isfinite(upd.weights)) or np.any(upd.weights < 0):
             raise FloatingPointError(f"{type(self).__name__}: particle weights are not finite")
         # newborn particles join after the update (adaptive birth, see the module docstring)
-        if upd.includes_births:
-            states, w, tids = upd.states, upd.weights, upd.tids
-        else:
-            states = np.vstack([upd.states, births.states])
-            w = np.concatenate([upd.weights, births.weights])
-            tids = np.concatenate([upd.tids, births.tids])
+        states = np.vstack([upd.states, births.states])
+        w = np.concatenate([upd.weights, births.weights])
+        tids = np.concatenate([upd.tids, births.tids])
         n = len(w)
         ess = effective_sample_size(w)
         self.states, self.weights, self.tids, resample = self._resample(states, w, tids)
