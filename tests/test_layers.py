@@ -21,7 +21,8 @@ LAYERS = [
     ["robot"],
     ["simulate"],
     ["viz"],
-    ["stream", "batch"],
+    ["stream"],
+    ["pipelines", "batch"],
     ["cli"],
 ]
 RANK = {name: i for i, names in enumerate(LAYERS) for name in names}

@@ -74,47 +74,7 @@ def read_array_audio(
         ``allow_clipping``. The same rules hold for ``avtrack stream`` (checked as the
         blocks come, see :class:`AudioChecks`).
     """
-    import soundfile
-
-    path = Path(path)
-    if not path.is_file():
-        raise InputError("audio file not found", path)
-    try:
-        data, fs = soundfile.read(str(path), dtype="float64", always_2d=True)
-    except (RuntimeError, soundfile.LibsndfileError, TypeError, ValueError) as exc:
-        raise InputError(f"cannot read the audio: {exc}", path) from None
-    x = np.ascontiguousarray(data.T)
-    if x.shape[0] != array.n_mics:
-        raise InputError(
-            f"has {x.shape[0]} channel(s) but array {array.name!r} has {array.n_mics} "
-            "microphones (WAV channel k is microphone k)",
-            path,
-        )
-    if x.shape[1] == 0:
-        raise InputError("has no samples", path)
-    if x.shape[1] < MIN_SECONDS * fs:
-        raise InputError(f"is too short ({x.shape[1]} samples, {1e3 * x.shape[1] / fs:.0f} ms); "
-                         f"localization needs at least {MIN_SECONDS:g} s", path)
-    if not np.all(np.isfinite(x)):
-        raise InputError("contains NaN or infinite samples", path)
-    peak = np.max(np.abs(x))
-    if peak == 0:
-        raise InputError("is silent (all samples are zero)", path)
-    clipped = np.count_nonzero(np.abs(x) >= CLIP_LEVEL) / x.size
-    if clipped > CLIP_FRACTION and not allow_clipping:
-        raise InputError(
-            f"is clipped ({100 * clipped:.2f} % of the samples at full scale); phases of "
-            "clipped audio are unreliable (use --allow-clipping to go on anyway)",
-            path,
-        )
-    if fs != FS:
-        import scipy.signal
-
-        ratio = Fraction(FS, int(fs))
-        if not quiet:
-            print(f"avtrack: note: {path} is at {fs} Hz; resampling to {FS} Hz", file=sys.stderr)
-        x = scipy.signal.resample_poly(x, ratio.numerator, ratio.denominator, axis=1)
-    return x
+    return ArrayRecording(path, array, allow_clipping, quiet).read()
 
 
 #: Seconds of audio per block of :class:`ArrayRecording` (memory: one block).
