@@ -178,7 +178,8 @@ time.""",
         description="""\
 Diarization error rate (NIST RT definition, as pyannote.metrics computes it) of a
 hypothesis RTTM against a reference RTTM: (missed + false alarm + speaker
-confusion) / total reference speech.""",
+confusion) / total reference speech. Printed twice, side by side: without a collar with
+overlapping speech scored (DIHARD's scoring), and with --collar (and --skip-overlap).""",
         epilog=DER_EXAMPLES,
     )
     der.add_argument("reference", type=Path, metavar="REF.rttm", help="reference speaker turns")
@@ -334,9 +335,26 @@ def run_mot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _der_scores(ref, hyp, collar: float, skip_overlap: bool) -> dict:
+    """DER and its components (percent of the scored reference speech), summed over the file
+    ids of ``ref``; ``collar`` is pyannote's total width."""
+    from avtrack.metrics.der import DERComponents, diarization_error_rate
+
+    files = sorted({s.file_id for s in ref})
+    parts = []
+    for file_id in files:
+        r = [s for s in ref if s.file_id == file_id]
+        h = [s for s in hyp if s.file_id == file_id] if len(files) > 1 else hyp
+        # pyannote's collar is the total width; ours is per side
+        parts.append(diarization_error_rate(r, h, collar=collar / 2, skip_overlap=skip_overlap))
+    c = DERComponents.sum(parts)
+    pct = (lambda v: 100 * v / c.total) if c.total else (lambda v: float("nan"))
+    return {"DER": 100 * c.rate, "missed": pct(c.missed), "false_alarm": pct(c.false_alarm),
+            "confusion": pct(c.confusion), "total_s": c.total}
+
+
 def run_der(args: argparse.Namespace) -> int:
     from avtrack.io.rttm import read_rttm
-    from avtrack.metrics.der import DERComponents, diarization_error_rate
 
     if not (args.collar >= 0 and args.collar < float("inf")):
         raise InputError(f"--collar must be a number of seconds >= 0, got {args.collar}")
@@ -346,23 +364,15 @@ def run_der(args: argparse.Namespace) -> int:
     hyp = read_rttm(args.hypothesis)
     if not ref:
         raise InputError("no speaker turns: the DER needs reference speech", args.reference)
-    parts = []
-    for file_id in sorted({s.file_id for s in ref}):
-        r = [s for s in ref if s.file_id == file_id]
-        h = [s for s in hyp if s.file_id == file_id] if len({s.file_id for s in ref}) > 1 else hyp
-        # pyannote's collar is the total width; ours is per side
-        parts.append(diarization_error_rate(r, h, collar=args.collar / 2,
-                                            skip_overlap=args.skip_overlap))
-    c = DERComponents.sum(parts)
-    scores = {
-        "DER": 100 * c.rate,
-        "missed": 100 * c.missed / c.total if c.total else float("nan"),
-        "false_alarm": 100 * c.false_alarm / c.total if c.total else float("nan"),
-        "confusion": 100 * c.confusion / c.total if c.total else float("nan"),
-        "total_s": c.total,
-        "reference_speakers": len({s.speaker for s in ref}),
-        "hypothesis_speakers": len({s.speaker for s in hyp}),
-    }
+    # DIHARD's scoring (no collar, overlap scored) beside the chosen collar
+    settings = {"no_collar": (0.0, False), "collar": (args.collar, args.skip_overlap)}
+    if args.collar == 0 and not args.skip_overlap:
+        settings = {"no_collar": (0.0, False)}
+    table = {k: _der_scores(ref, hyp, c, o) for k, (c, o) in settings.items()}
+    scores = dict(table["collar" if "collar" in table else "no_collar"])
+    scores["reference_speakers"] = len({s.speaker for s in ref})
+    scores["hypothesis_speakers"] = len({s.speaker for s in hyp})
+    scores["no_collar"] = table["no_collar"]
     if args.json is not None:
         with atomic_write(args.json) as fh:
             json.dump({"reference": str(args.reference), "hypothesis": str(args.hypothesis),
@@ -370,13 +380,17 @@ def run_der(args: argparse.Namespace) -> int:
                        "scores": scores}, fh, indent=2)
             fh.write("\n")
     if not args.quiet:
-        print(f"DER of {args.hypothesis} against {args.reference} (collar {args.collar:g} s"
-              f"{', overlap skipped' if args.skip_overlap else ''}; lower is better):")
-        print(f"  DER {scores['DER']:.2f} %  = missed {scores['missed']:.2f} + false alarm "
-              f"{scores['false_alarm']:.2f} + confusion {scores['confusion']:.2f}  "
-              f"({c.total:.1f} s of reference speech; speakers: "
-              f"{scores['hypothesis_speakers']} found, {scores['reference_speakers']} in the "
-              f"reference)")
+        print(f"DER of {args.hypothesis} against {args.reference} (percent of the scored "
+              f"reference speech; lower is better; speakers: {scores['hypothesis_speakers']} "
+              f"found, {scores['reference_speakers']} in the reference):")
+        labels = {"no_collar": "no collar, overlap scored (DIHARD)",
+                  "collar": f"collar {args.collar:g} s"
+                  + (", overlap skipped" if args.skip_overlap else ", overlap scored")}
+        width = max(len(labels[k]) for k in table)
+        print(f"  {'':{width}}  {'DER':>6}  {'missed':>6}  {'FA':>6}  {'conf.':>6}  speech")
+        for k, d in table.items():
+            print(f"  {labels[k]:{width}}  {d['DER']:6.2f}  {d['missed']:6.2f}  "
+                  f"{d['false_alarm']:6.2f}  {d['confusion']:6.2f}  {d['total_s']:.1f} s")
     return 0
 
 
