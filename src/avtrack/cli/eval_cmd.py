@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
@@ -504,7 +505,7 @@ def run_voices(args: argparse.Namespace) -> int:
         scores = score_voices(refs, scene.audio[0], voices, ids)
     except ValueError as exc:
         raise InputError(str(exc), args.result_dir) from None
-    rows = []
+    rows: list[dict[str, Any]] = []
     for sc in scores:
         talk = (gi == sc.person) & gs
         seen = float(np.mean(gv[talk])) if np.any(talk) else float("nan")
