@@ -152,6 +152,13 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         help="ground-truth DOA CSV: print MD/FA rates, MAE, identity switches and "
         "OSPA (thesis §5.5.1)",
     )
+    p.add_argument(
+        "--voices",
+        type=Path,
+        metavar="DIR",
+        help="also write DIR/<id>.wav, each track's speech alone (an MVDR beamformer steered at "
+        "the track's direction, silent while it is not active); needs AUDIO.wav",
+    )
     add_clipping_option(p)
     add_common(p, run)
 
@@ -205,6 +212,11 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give AUDIO.wav (with --array) or --doa DOA.csv")
     if args.doa is not None and args.audio is not None:
         raise InputError("give either AUDIO.wav or --doa DOA.csv, not both")
+    if args.voices is not None and args.audio is None:
+        raise InputError("--voices beamforms the microphone array's recording: give AUDIO.wav "
+                         "with --array (not --doa)")
+    if args.voices is not None and args.voices.exists() and not args.voices.is_dir():
+        raise InputError("--voices must name a folder", args.voices)
     truth = read_doa_csv(args.truth) if args.truth is not None else None
     observations = args.observations or reading.observations
     hop = HOP_S
@@ -228,6 +240,16 @@ def run(args: argparse.Namespace) -> int:
         tracks = tracker.run(seq)
     t_track = time.perf_counter() - t0
     write_doa_csv(args.output, tracks)
+    if args.voices is not None:
+        from avtrack.audio.arrays import load_array
+        from avtrack.audio.beamform import extract_voices, tracks_from_doa, write_voices
+        from avtrack.audio.recording import FS, read_array_audio
+
+        array = load_array(args.array)
+        x = read_array_audio(args.audio, array, args.allow_clipping, True)
+        with progress.activity("beamforming the voices", args.quiet):
+            voices = extract_voices(x, FS, array, tracks_from_doa(tracks, args.step * hop))
+        write_voices(args.voices, voices, FS)
     if args.plot is not None:
         from avtrack.viz.plots import plot_doa_tracks
 
