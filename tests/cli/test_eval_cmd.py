@@ -224,3 +224,33 @@ def test_eval_der_matches_pyannote(tmp_path, capsys):
     assert main(["eval", "der", str(tmp_path / "ref.rttm"), str(tmp_path / "hyp.rttm")]) == 0
     assert "lower is better" in capsys.readouterr().out
     assert main(["eval", "der", str(tmp_path / "none.rttm"), str(tmp_path / "hyp.rttm")]) == 2
+
+
+def test_eval_der_with_and_without_collar(tmp_path, capsys):
+    """Reference A talks 0-10 s, the hypothesis 0-9 s. No collar: 1 s missed of 10 s (10 %).
+    Collar 0.5 s (0.25 s each side of the boundaries at 0 and 10 s): 9.5 s scored, 0.75 s
+    (9-9.75 s) missed: 7.894... %."""
+    from avtrack.cli.main import main
+
+    (tmp_path / "ref.rttm").write_text("SPEAKER rec 1 0.000 10.000 <NA> <NA> A <NA> <NA>\n")
+    (tmp_path / "hyp.rttm").write_text("SPEAKER rec 1 0.000 9.000 <NA> <NA> x <NA> <NA>\n")
+    out = tmp_path / "der.json"
+    assert main(["eval", "der", str(tmp_path / "ref.rttm"), str(tmp_path / "hyp.rttm"),
+                 "--json", str(out)]) == 0
+    scores = json.loads(out.read_text())["scores"]
+    assert scores["no_collar"]["DER"] == pytest.approx(10.0)
+    assert scores["no_collar"]["missed"] == pytest.approx(10.0)
+    assert scores["DER"] == pytest.approx(100 * 0.75 / 9.5)
+    assert scores["missed"] == pytest.approx(100 * 0.75 / 9.5)
+    assert scores["false_alarm"] == scores["confusion"] == 0
+    text = capsys.readouterr().out
+    assert "no collar, overlap scored (DIHARD)" in text and "collar 0.5 s" in text
+
+
+def test_eval_voices_bad_input(tmp_path, capsys):
+    from avtrack.cli.main import main
+
+    assert main(["eval", "voices", str(tmp_path), str(tmp_path / "none")]) == 2
+    assert "scene directory not found" in capsys.readouterr().err
+    assert main(["eval", "voices", str(tmp_path), str(tmp_path), "--gate", "0"]) == 2
+    assert "--gate" in capsys.readouterr().err

@@ -96,8 +96,12 @@ def test_localizes_and_tracks_a_recording(tmp_path, capsys):
     out = tmp_path / "tracks.csv"
     cfg = tmp_path / "vm.yaml"
     cfg.write_text("activity_threshold: 0.1\n")
-    assert main(wav, "--array", "nao4", "--tracker", "vonmises", "--config", cfg, "-o", out) == 0
+    assert main(wav, "--array", "nao4", "--tracker", "vonmises", "--config", cfg, "-o", out,
+                "--voices", tmp_path / "voices") == 0
     tracks = read_doa_csv(out)
+    wavs = sorted((tmp_path / "voices").glob("*.wav"))
+    assert {int(w.stem) for w in wavs} == {int(i) for i in np.unique(tracks.ids)}
+    assert all(sf.info(w).frames == y.shape[1] for w in wavs)
     late = tracks.active & (tracks.time_s > 0.75)
     assert late.sum() > 5
     assert np.median(np.abs(tracks.azimuth_deg[late] - SOURCE_AZIMUTH_DEG)) <= 6.0
@@ -113,6 +117,7 @@ def test_localizes_and_tracks_a_recording(tmp_path, capsys):
         (("--doa", "missing.csv"), "file not found"),
         (("--doa", "doa.csv", "--step", "0"), "--step must be >= 1"),
         (("--doa", "doa.csv", "--config", "bad.yaml"), "bad.yaml: sigma: unknown field"),
+        (("--doa", "doa.csv", "--voices", "v"), "--voices beamforms"),
     ],
 )
 def test_bad_input_exits_2_with_one_line(doa_files, tmp_path, capsys, monkeypatch, args, message):

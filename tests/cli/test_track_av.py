@@ -303,3 +303,43 @@ def test_track_av_on_av163_sequence_30_from_its_video(main, shared_data, tmp_pat
     speaking_people = {int(np.bincount(votes[int(sp.lstrip("P"))]).argmax())
                        for sp in speakers if votes.get(int(sp.lstrip("P")))}
     assert speaking_people == {0, 1}
+
+
+def test_track_av_voices_are_written_and_scored(main, tmp_path, capsys):
+    """--voices: one WAV per person of persons.csv, as long as the scene's audio; eval voices
+    scores them against the scene's references (the person never seen included)."""
+    import json
+
+    import soundfile as sf
+
+    scene_dir = out_of_image()
+    out = tmp_path / "voices"
+    assert main(["track-av", str(scene_dir), "-o", str(out), "--voices", "-q"]) == 0
+    wavs = sorted((out / "voices").glob("*.wav"))
+    ids = {int(line.split(",")[2]) for line in
+           (out / "persons.csv").read_text().splitlines()[1:]}
+    assert {int(p.stem) for p in wavs} == ids
+    n = sf.info(scene_dir / "audio.wav").frames
+    assert all(sf.info(p).frames == n for p in wavs)
+    assert sorted(p.stem for p in (scene_dir / "gt" / "voices").glob("*.wav")) == ["1", "2"]
+    res = tmp_path / "voices.json"
+    assert main(["eval", "voices", str(out), str(scene_dir), "--json", str(res)]) == 0
+    persons = json.loads(res.read_text())["persons"]
+    assert [p["person"] for p in persons] == [1, 2]
+    assert all(p["track"] is not None and p["si_sdr_db"] is not None for p in persons)
+    assert persons[0]["si_sdri_db"] > 3  # the talker who is seen, then out of the image
+    assert "SI-SDRi" in capsys.readouterr().out
+
+
+def test_track_av_voices_needs_the_array_recording(main, tmp_path, capsys):
+    scene_dir = out_of_image()
+    for extra in (["--no-audio"], ["--model", "image"]):
+        assert main(["track-av", str(scene_dir), "-o", str(tmp_path / "x"), "--voices",
+                     *extra]) == 2
+        assert "--voices beamforms the microphone array's recording" in capsys.readouterr().err
+    (tmp_path / "cam.yaml").write_text("fx: 500\nfy: 500\ncx: 320\ncy: 240\nwidth: 640\n"
+                                       "height: 480\n")
+    assert main(["track-av", "--doa", str(scene_dir / "gt" / "doa.csv"), "--camera",
+                 str(tmp_path / "cam.yaml"), "--fps", "25", "--detections",
+                 str(scene_dir / "detections.txt"), "-o", str(tmp_path / "y"), "--voices"]) == 2
+    assert "--voices" in capsys.readouterr().err

@@ -3,8 +3,6 @@ handed on as they come, and the reader's rules checked before any block."""
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 import pytest
 import soundfile as sf
@@ -17,14 +15,6 @@ from avtrack.localize import make_localizer, peak_table
 from avtrack.pipelines import localize_recording, track_recording
 from avtrack.stream import DOAStream
 from tests.stream.test_stream import batch_doa_tracks, meeting
-
-
-@functools.cache
-def meeting_wav(tmp_dir: str) -> str:
-    array, x = meeting()
-    path = f"{tmp_dir}/meeting.wav"
-    sf.write(path, x.T, 16000, subtype="DOUBLE")
-    return path
 
 
 @pytest.fixture(scope="module")

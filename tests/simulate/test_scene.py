@@ -50,9 +50,15 @@ def test_scene_directory_contract(scene_dir):
         "gt/doa.csv",
         "gt/speech.rttm",
         "gt/positions.csv",
+        *(f"gt/voices/{pid}.wav" for pid in scene.ids),
     }
     audio, fs = sf.read(out / "audio.wav", always_2d=True)
     assert fs == 16000 and audio.shape == (6 * 16000, 4)
+    # the references at microphone 0 add up to its speech: what is left is the noise
+    refs = np.stack([sf.read(out / "gt" / "voices" / f"{pid}.wav")[0] for pid in scene.ids])
+    assert refs.shape == (scene.ids.size, 6 * 16000)
+    residual = audio[:, 0] - refs.sum(axis=0)
+    assert np.sum(residual**2) < 0.1 * np.sum(audio[:, 0] ** 2)
     assert np.all(np.isfinite(audio)) and 0 < np.abs(audio).max() <= 0.9 + 1e-6
     assert json.loads((out / "array.json").read_text())["positions"]
     dets = read_mot(out / "detections.txt", kind="det")

@@ -3,7 +3,8 @@
 Tasks (each its own sub-command): ``mot`` — MOTChallenge visual tracking (MOTA, IDF1, HOTA ...);
 ``doa`` — frame-wise speaker localization (thesis §5.5.1: MD and FA rates, MAE); ``der`` —
 diarization error rate of an RTTM file; ``persons`` — direction accuracy of ``persons.csv``
-while persons are out of the camera's view.
+while persons are out of the camera's view; ``voices`` — SI-SDR of the voices of
+``track-av --voices``.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import Any
 
 from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
@@ -23,7 +25,21 @@ examples:
   avtrack eval mot gt/gt.txt results/TUD-Campus.txt
   avtrack eval doa scene/gt/doa.csv doa.csv --success-deg 10
   avtrack eval der scene/gt/speech.rttm out/speech.rttm
+  avtrack eval voices out/walkout-1 scenes/walkout-1
   avtrack eval mot --help
+"""
+
+VOICES_EXAMPLES = """\
+examples:
+  avtrack simulate walkout -o scenes/walkout-1 --seed 1
+  avtrack track-av scenes/walkout-1 -o out/walkout-1 --voices
+  avtrack eval voices out/walkout-1 scenes/walkout-1 --json voices.json
+
+SI-SDR (Le Roux et al., ICASSP 2019) of each voice against the person's image at microphone 0
+(SCENE_DIR/gt/voices/<id>.wav, written by avtrack simulate), and its improvement (SI-SDRi)
+over microphone 0's own signal. Tracked identities are matched to ground-truth persons as
+'avtrack eval persons' matches them (azimuths, one to one per frame, within --gate); each
+person then gets the identity matched to them in most of the frames where they speak.
 """
 
 PERSONS_EXAMPLES = """\
@@ -163,7 +179,8 @@ time.""",
         description="""\
 Diarization error rate (NIST RT definition, as pyannote.metrics computes it) of a
 hypothesis RTTM against a reference RTTM: (missed + false alarm + speaker
-confusion) / total reference speech.""",
+confusion) / total reference speech. Printed twice, side by side: without a collar with
+overlapping speech scored (DIHARD's scoring), and with --collar (and --skip-overlap).""",
         epilog=DER_EXAMPLES,
     )
     der.add_argument("reference", type=Path, metavar="REF.rttm", help="reference speaker turns")
@@ -204,6 +221,25 @@ of the out-of-view persons (lower is better) and the share of their frames match
     per.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
     add_common(per, run_persons)
     add_config_option(per)
+
+    voi = add_command(
+        tasks,
+        "voices",
+        help="SI-SDR of the voices of track-av --voices, and their improvement (SI-SDRi)",
+        description="""\
+Score the voices OUT_DIR/voices/<id>.wav of 'avtrack track-av --voices' against a simulated
+scene's references SCENE_DIR/gt/voices/<id>.wav (each person as microphone 0 hears them):
+per person the SI-SDR of their voice and its improvement over microphone 0 (SI-SDRi; both in
+dB, higher is better).""",
+        epilog=VOICES_EXAMPLES,
+    )
+    voi.add_argument("result_dir", type=Path, metavar="OUT_DIR", help="track-av --voices output")
+    voi.add_argument("scene", type=Path, metavar="SCENE_DIR", help="scene directory")
+    voi.add_argument("--gate", type=float, default=30.0, metavar="DEG",
+                     help="largest azimuth difference of a match (default %(default)s)")
+    voi.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
+    add_common(voi, run_voices)
+    add_config_option(voi)
 
 
 DOA_EXAMPLES = """\
@@ -300,9 +336,26 @@ def run_mot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _der_scores(ref, hyp, collar: float, skip_overlap: bool) -> dict:
+    """DER and its components (percent of the scored reference speech), summed over the file
+    ids of ``ref``; ``collar`` is pyannote's total width."""
+    from avtrack.metrics.der import DERComponents, diarization_error_rate
+
+    files = sorted({s.file_id for s in ref})
+    parts = []
+    for file_id in files:
+        r = [s for s in ref if s.file_id == file_id]
+        h = [s for s in hyp if s.file_id == file_id] if len(files) > 1 else hyp
+        # pyannote's collar is the total width; ours is per side
+        parts.append(diarization_error_rate(r, h, collar=collar / 2, skip_overlap=skip_overlap))
+    c = DERComponents.sum(parts)
+    pct = (lambda v: 100 * v / c.total) if c.total else (lambda v: float("nan"))
+    return {"DER": 100 * c.rate, "missed": pct(c.missed), "false_alarm": pct(c.false_alarm),
+            "confusion": pct(c.confusion), "total_s": c.total}
+
+
 def run_der(args: argparse.Namespace) -> int:
     from avtrack.io.rttm import read_rttm
-    from avtrack.metrics.der import DERComponents, diarization_error_rate
 
     if not (args.collar >= 0 and args.collar < float("inf")):
         raise InputError(f"--collar must be a number of seconds >= 0, got {args.collar}")
@@ -312,23 +365,15 @@ def run_der(args: argparse.Namespace) -> int:
     hyp = read_rttm(args.hypothesis)
     if not ref:
         raise InputError("no speaker turns: the DER needs reference speech", args.reference)
-    parts = []
-    for file_id in sorted({s.file_id for s in ref}):
-        r = [s for s in ref if s.file_id == file_id]
-        h = [s for s in hyp if s.file_id == file_id] if len({s.file_id for s in ref}) > 1 else hyp
-        # pyannote's collar is the total width; ours is per side
-        parts.append(diarization_error_rate(r, h, collar=args.collar / 2,
-                                            skip_overlap=args.skip_overlap))
-    c = DERComponents.sum(parts)
-    scores = {
-        "DER": 100 * c.rate,
-        "missed": 100 * c.missed / c.total if c.total else float("nan"),
-        "false_alarm": 100 * c.false_alarm / c.total if c.total else float("nan"),
-        "confusion": 100 * c.confusion / c.total if c.total else float("nan"),
-        "total_s": c.total,
-        "reference_speakers": len({s.speaker for s in ref}),
-        "hypothesis_speakers": len({s.speaker for s in hyp}),
-    }
+    # DIHARD's scoring (no collar, overlap scored) beside the chosen collar
+    settings = {"no_collar": (0.0, False), "collar": (args.collar, args.skip_overlap)}
+    if args.collar == 0 and not args.skip_overlap:
+        settings = {"no_collar": (0.0, False)}
+    table = {k: _der_scores(ref, hyp, c, o) for k, (c, o) in settings.items()}
+    scores = dict(table["collar" if "collar" in table else "no_collar"])
+    scores["reference_speakers"] = len({s.speaker for s in ref})
+    scores["hypothesis_speakers"] = len({s.speaker for s in hyp})
+    scores["no_collar"] = table["no_collar"]
     if args.json is not None:
         with atomic_write(args.json) as fh:
             json.dump({"reference": str(args.reference), "hypothesis": str(args.hypothesis),
@@ -336,13 +381,17 @@ def run_der(args: argparse.Namespace) -> int:
                        "scores": scores}, fh, indent=2)
             fh.write("\n")
     if not args.quiet:
-        print(f"DER of {args.hypothesis} against {args.reference} (collar {args.collar:g} s"
-              f"{', overlap skipped' if args.skip_overlap else ''}; lower is better):")
-        print(f"  DER {scores['DER']:.2f} %  = missed {scores['missed']:.2f} + false alarm "
-              f"{scores['false_alarm']:.2f} + confusion {scores['confusion']:.2f}  "
-              f"({c.total:.1f} s of reference speech; speakers: "
-              f"{scores['hypothesis_speakers']} found, {scores['reference_speakers']} in the "
-              f"reference)")
+        print(f"DER of {args.hypothesis} against {args.reference} (percent of the scored "
+              f"reference speech; lower is better; speakers: {scores['hypothesis_speakers']} "
+              f"found, {scores['reference_speakers']} in the reference):")
+        labels = {"no_collar": "no collar, overlap scored (DIHARD)",
+                  "collar": f"collar {args.collar:g} s"
+                  + (", overlap skipped" if args.skip_overlap else ", overlap scored")}
+        width = max(len(labels[k]) for k in table)
+        print(f"  {'':{width}}  {'DER':>6}  {'missed':>6}  {'FA':>6}  {'conf.':>6}  speech")
+        for k, d in table.items():
+            print(f"  {labels[k]:{width}}  {d['DER']:6.2f}  {d['missed']:6.2f}  "
+                  f"{d['false_alarm']:6.2f}  {d['confusion']:6.2f}  {d['total_s']:.1f} s")
     return 0
 
 
@@ -387,4 +436,103 @@ def run_persons(args: argparse.Namespace) -> int:
             print(f"persons out of view in {args.scene}: azimuth MAE {s.mae_deg:.2f} deg (lower "
                   f"is better) over {s.n_matched} of {s.n_frames} person-frames matched "
                   f"(coverage {100 * s.coverage:.1f} %, higher is better; gate {args.gate:g} deg)")
+    return 0
+
+
+def _read_mono(path: Path, fs: int | None = None):
+    import numpy as np
+    import soundfile as sf
+
+    if not path.is_file():
+        raise InputError("file not found", path)
+    try:
+        x, rate = sf.read(path, always_2d=True)
+    except (RuntimeError, sf.LibsndfileError) as exc:
+        raise InputError(f"cannot read audio: {exc}", path) from None
+    if x.shape[1] != 1:
+        raise InputError(f"expected one channel, got {x.shape[1]}", path)
+    if fs is not None and rate != fs:
+        raise InputError(f"sampled at {rate} Hz, the scene at {fs} Hz", path)
+    if not np.all(np.isfinite(x)):
+        raise InputError("contains NaN or infinite samples", path)
+    return x[:, 0]
+
+
+def run_voices(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from avtrack.io.doa import read_doa_csv
+    from avtrack.io.persons import read_persons_csv
+    from avtrack.io.scene import load_scene
+    from avtrack.metrics.persons import truth_per_frame
+    from avtrack.metrics.voices import assign_identities, score_voices
+
+    if not 0 < args.gate <= 180:
+        raise InputError(f"--gate must be in (0, 180] degrees, got {args.gate}")
+    if args.json is not None and args.json.is_dir():
+        raise InputError("--json must name a file, got a directory", args.json)
+    scene = load_scene(args.scene)
+    ref_dir = args.scene / "gt" / "voices"
+    if not ref_dir.is_dir():
+        raise InputError("no reference voices (gt/voices/<id>.wav): simulate the scene again "
+                         "with this version of avtrack simulate", args.scene)
+    voice_dir = args.result_dir / "voices"
+    if not voice_dir.is_dir():
+        raise InputError("no voices/ folder: run avtrack track-av with --voices", args.result_dir)
+    n = scene.audio.shape[1]
+    refs = {}
+    for path in sorted(ref_dir.glob("*.wav")):
+        if not path.stem.isdigit():
+            raise InputError("expected <person id>.wav", path)
+        refs[int(path.stem)] = _read_mono(path, scene.fs)
+    voices = {}
+    for path in sorted(voice_dir.glob("*.wav")):
+        if not path.stem.isdigit():
+            raise InputError("expected <person id>.wav", path)
+        voices[int(path.stem)] = _read_mono(path, scene.fs)
+    for what, d, folder in (("reference", refs, ref_dir), ("voice", voices, voice_dir)):
+        for pid, x in d.items():
+            if x.size != n:
+                raise InputError(f"{what} has {x.size} samples, the scene's audio {n}",
+                                 folder / f"{pid}.wav")
+    truth = read_doa_csv(args.scene / "gt" / "doa.csv")
+    gt = read_mot(args.scene / "gt" / "gt.txt", kind="gt")
+    persons = read_persons_csv(args.result_dir / "persons.csv", fps=scene.fps)
+    gf, gi, ga, gv, gs = truth_per_frame(truth, gt, scene.fps, scene.n_frames)
+    ids = assign_identities(gf, gi, ga, gs, persons.frames, persons.ids, persons.azimuth_deg,
+                            gate_deg=args.gate)
+    try:
+        scores = score_voices(refs, scene.audio[0], voices, ids)
+    except ValueError as exc:
+        raise InputError(str(exc), args.result_dir) from None
+    rows: list[dict[str, Any]] = []
+    for sc in scores:
+        talk = (gi == sc.person) & gs
+        seen = float(np.mean(gv[talk])) if np.any(talk) else float("nan")
+        rows.append({"person": sc.person, "track": sc.track, "si_sdr_db": sc.si_sdr,
+                     "mixture_si_sdr_db": sc.si_sdr_mixture, "si_sdri_db": sc.improvement,
+                     "in_view_share": seen})
+    matched = [r for r in rows if r["track"] is not None]
+    mean = float(np.mean([r["si_sdri_db"] for r in matched])) if matched else float("nan")
+    if args.json is not None:
+        def clean(v):
+            return None if isinstance(v, float) and not np.isfinite(v) else v
+
+        with atomic_write(args.json) as fh:
+            json.dump({"output": str(args.result_dir), "scene": str(args.scene),
+                       "gate_deg": args.gate, "mean_si_sdri_db": clean(mean),
+                       "persons": [{k: clean(v) for k, v in r.items()} for r in rows]},
+                      fh, indent=2)
+            fh.write("\n")
+    if not args.quiet:
+        print(f"voices of {args.result_dir} against {args.scene} (dB, higher is better):")
+        print("  person  track  SI-SDR  mic 0  SI-SDRi  seen while speaking")
+        for r in rows:
+            tr = "-" if r["track"] is None else str(r["track"])
+            print(f"  {r['person']:>6}  {tr:>5}  {r['si_sdr_db']:6.2f}  "
+                  f"{r['mixture_si_sdr_db']:5.2f}  {r['si_sdri_db']:7.2f}  "
+                  f"{100 * r['in_view_share']:5.1f} %")
+        missing = len(rows) - len(matched)
+        print(f"  mean SI-SDRi {mean:.2f} dB over {len(matched)} matched persons"
+              + (f"; {missing} person(s) without a voice" if missing else ""))
     return 0

@@ -154,6 +154,13 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         help="ground-truth DOA CSV: print MD/FA rates, MAE, identity switches and "
         "OSPA (thesis §5.5.1)",
     )
+    p.add_argument(
+        "--voices",
+        type=Path,
+        metavar="DIR",
+        help="also write DIR/<id>.wav, each track's speech alone (an MVDR beamformer steered at "
+        "the track's direction, silent while it is not active); needs AUDIO.wav",
+    )
     add_clipping_option(p)
     add_common(p, run)
 
@@ -175,6 +182,11 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give AUDIO.wav (with --array) or --doa DOA.csv")
     if args.doa is not None and args.audio is not None:
         raise InputError("give either AUDIO.wav or --doa DOA.csv, not both")
+    if args.voices is not None and args.audio is None:
+        raise InputError("--voices beamforms the microphone array's recording: give AUDIO.wav "
+                         "with --array (not --doa)")
+    if args.voices is not None and args.voices.exists() and not args.voices.is_dir():
+        raise InputError("--voices must name a folder", args.voices)
     truth = read_doa_csv(args.truth) if args.truth is not None else None
     observations = args.observations or reading.observations
     if args.doa is not None:
@@ -184,11 +196,21 @@ def run(args: argparse.Namespace) -> int:
         source = args.doa.name
     else:
         run_ = _track_audio_file(args, config, observations, keep=truth is not None or bool(
-            args.plot))
+            args.plot) or args.voices is not None)
         tracks = run_.table if run_.table is not None else DOATable.empty()
         frame_times, elapsed, duration = run_.frame_times, run_.elapsed_s, run_.duration_s
         n_ids, n_active, n_frames = len(run_.track_ids), run_.n_active, run_.n_frames
         source = args.audio.name
+    if args.voices is not None:
+        from avtrack.audio.arrays import load_array
+        from avtrack.audio.beamform import extract_voices, tracks_from_doa, write_voices
+        from avtrack.audio.recording import FS, read_array_audio
+
+        array = load_array(args.array)
+        x = read_array_audio(args.audio, array, args.allow_clipping, True)
+        with progress.activity("beamforming the voices", args.quiet):
+            voices = extract_voices(x, FS, array, tracks_from_doa(tracks, args.step * HOP_S))
+        write_voices(args.voices, voices, FS)
     if args.plot is not None:
         from avtrack.viz.plots import plot_doa_tracks
 

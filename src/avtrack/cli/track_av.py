@@ -50,6 +50,10 @@ examples:
   # then score them
   avtrack eval mot scenes/meeting-1/gt/gt.txt out/meeting-1/tracks.txt
 
+  # one voice per person, out of view too, scored by SI-SDR against the scene's references
+  avtrack track-av scenes/walkout-1 -o out/walkout-1 --voices
+  avtrack eval voices out/walkout-1 scenes/walkout-1
+
 AV16.3 (the sequence's real video; array 1's DOA measurements; the calibration maps them):
   avtrack track-av ../shared/data/av16.3 --seq 30 --cam 1 \
       --video ../shared/data/av16.3/seq30-2p-1101_cam1_divx_audio.avi -o out/av30
@@ -61,6 +65,7 @@ image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked 
 frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y and in_view
 only while the camera shows the person: in the image and seen in the last 0.1 s),
 OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --no-audio),
+OUT_DIR/voices/<id>.wav (--voices: each person's voice; score them with avtrack eval voices),
 OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
 image --plot); with --video (a recording of your own, AV16.3), OUT_DIR/index.html and
 OUT_DIR/tracks.webm: the tracks over the video's own frames (--no-report: not written).
@@ -190,6 +195,12 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
         "probability with --model direction (overrides --config)",
     )
     p.add_argument(
+        "--voices", action="store_true",
+        help="--model direction with audio: also write OUT_DIR/voices/<id>.wav, each person's "
+        "speech alone (an MVDR beamformer of the array's microphones steered at the person's "
+        "tracked direction, silent outside their speaker turns; as microphone 0 hears it)",
+    )
+    p.add_argument(
         "--config", type=Path, metavar="FILE.yaml",
         help="tracker parameters (PersonConfig or VAVITConfig fields, see below)"
     )
@@ -241,6 +252,11 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
     own = [o for o in ("video", "audio", "camera", "detections", "doa", "fps", "detector",
                        "array", "appearance") if getattr(args, o) is not None]
+    if args.voices and (args.model != "direction" or args.no_audio or args.seq is not None
+                        or args.cam is not None or (args.scene is None and args.audio is None)):
+        raise InputError("--voices beamforms the microphone array's recording: it needs "
+                         "--model direction with audio, and a scene directory or --audio with "
+                         "--array (not --doa alone, --no-audio or AV16.3)")
     if args.seq is not None or args.cam is not None:
         return run_av163(args)
     if args.scene is None:
@@ -371,9 +387,32 @@ def run_direction(args: argparse.Namespace) -> int:
     write_mot(out / "tracks.txt", res.tracks)
     _write_text(out / "persons.csv", res.persons.to_csv())
     write_rttm(out / "speech.rttm", res.speech)
+    if args.voices:
+        from avtrack.audio.arrays import load_array
+
+        t0 = time.perf_counter()
+        _write_voices(out, scene.audio, scene.fs, load_array(scene.path / "array.json"), res,
+                      args.quiet)
+        elapsed += time.perf_counter() - t0
     if not args.quiet:
         _print_summary(res, len(np.unique(res.persons.ids)), out, elapsed)
     return 0
+
+
+def _write_voices(out: Path, audio: np.ndarray, fs: int, array, res, quiet: bool) -> None:
+    """OUT_DIR/voices/<id>.wav: each tracked person's voice (:mod:`avtrack.audio.beamform`)."""
+    from avtrack.audio.beamform import extract_voices, tracks_from_persons, write_voices
+
+    if audio.shape[0] != array.n_mics:
+        raise InputError(f"--voices: the audio has {audio.shape[0]} channels, the array "
+                         f"{array.n_mics} microphones")
+    tracks = tracks_from_persons(res.persons, res.speech)
+    with progress.activity(f"beamforming {len(tracks)} voices", quiet):
+        try:
+            voices = extract_voices(audio, fs, array, tracks)
+        except ValueError as exc:
+            raise InputError(f"--voices: {exc}") from None
+    write_voices(out / "voices", voices, fs)
 
 
 
@@ -500,6 +539,12 @@ def run_recording(args: argparse.Namespace) -> int:
         out, f"tracking {n_frames} frames", args.quiet, peaks is not None,
         lambda: track_persons(dets, appearance, peaks, geometry, fps, n_frames,
                               visual_config=vcfg, config=config, azimuth_span_deg=span))
+    if args.voices:
+        if audio is None:
+            raise InputError("--voices needs --audio with --array (the microphones to beamform)")
+        from avtrack.audio.recording import FS
+
+        _write_voices(out, audio, FS, array, res, args.quiet)
     if video is not None and not args.no_report:
         from avtrack.io.video import iter_frames
         from avtrack.viz.recording import write_recording_report

@@ -14,6 +14,9 @@ The scene directory (the contract of ``SPEC.md``, read back by ``avtrack track-a
                         the array frame, ``active`` = speaking (frame 0 is t = 0)
       gt/speech.rttm    who speaks when (speaker labels ``P<id>``)
       gt/positions.csv  ``frame,time_s,id,x,y,z`` room-frame head positions per video frame
+      gt/voices/<id>.wav  each person's speech as microphone 0 hears it (their image at the
+                        reference microphone, on the scale of audio.wav; float32 mono): the
+                        reference of a separated voice (``avtrack eval voices``)
 
 Every random draw comes from ``numpy.random.SeedSequence(seed)``, split into independent streams
 for motion, speech timing, speech material, noise and detections, so changing (say) the detector
@@ -95,6 +98,10 @@ class Scene:
     sensors : SensorDraw or None
         The drawn per-microphone gain and delay mismatch (None: the scenario has no
         ``sensors`` section).
+    references : ndarray (P, n_samples) or None
+        Each person's image at microphone 0 (reverberant speech through the same sensor and
+        level scaling as ``audio``; zeros for a person who never speaks): ``audio[0]`` is
+        their sum plus the noise.
     """
 
     scenario: dict
@@ -110,6 +117,7 @@ class Scene:
     detections: SimulatedDetections
     doa: DOATable
     sensors: SensorDraw | None = None
+    references: np.ndarray | None = None
 
     @property
     def fs(self) -> int:
@@ -319,13 +327,14 @@ def simulate_scene(
     pose = acoustics.ArrayPose(
         np.asarray(scenario["array"]["position"]), scenario["array"]["yaw_deg"]
     )
+    talkers = [k for k in range(len(ids)) if np.any(dry[k])]
     sources = [
-        acoustics.MovingSource(dry[k], traj.times, traj.positions)
-        for k, traj in enumerate(trajectories)
-        if np.any(dry[k])
+        acoustics.MovingSource(dry[k], trajectories[k].times, trajectories[k].positions)
+        for k in talkers
     ]
+    images = np.zeros((len(ids), array.n_mics, n_samples))  # each person at every microphone
     if sources:
-        speech = acoustics.render(
+        speech, talker_images = acoustics.render(
             room,
             array,
             pose,
@@ -333,7 +342,9 @@ def simulate_scene(
             step_m=scenario["render"]["step_m"],
             n_samples=n_samples,
             rng=rngs["tails"],
+            return_images=True,
         )
+        images[talkers] = talker_images[:, :, :n_samples]
     else:
         speech = np.zeros((array.n_mics, n_samples))
     speech = speech[:, :n_samples]
@@ -350,13 +361,18 @@ def simulate_scene(
             noise = acoustics.fan_noise_image(room, array, pose, n_samples, fs, rngs["noise"])
         audio += _scaled_noise(speech, noise, snr, active)
     draw = None
+    references = images[:, 0, :].copy()
     if "sensors" in scenario:
         audio, draw = _imperfect_sensors(
             audio, speech, active, scenario["sensors"], rngs["sensors"]
         )
+        # the same gain and delay on each person's image (linear: the images still add up)
+        for k in talkers:
+            references[k] = apply_mismatch(images[k], draw)[0]
     peak = float(np.max(np.abs(audio))) if audio.size else 0.0
     if peak > 0:
         audio *= 0.9 / peak
+        references = references * (0.9 / peak)
 
     n_video = int(np.floor(duration * scenario["fps"] + 1e-9))
     video_times = np.arange(n_video) / scenario["fps"]
@@ -381,6 +397,7 @@ def simulate_scene(
         detections,
         doa,
         draw,
+        references,
     )
 
 
@@ -516,6 +533,11 @@ def _write_contents(scene: Scene, d: Path) -> None:
         d / "gt" / "speech.rttm",
         [RTTMSegment("audio", s.start, s.end - s.start, f"P{s.speaker}") for s in scene.segments],
     )
+    if scene.references is not None:
+        (d / "gt" / "voices").mkdir()
+        for pid, ref in zip(scene.ids, scene.references, strict=True):
+            sf.write(d / "gt" / "voices" / f"{pid}.wav", ref.astype(np.float32), scene.fs,
+                     subtype="FLOAT")
     with atomic_write(d / "gt" / "positions.csv") as fh:
         fh.write("frame,time_s,id,x,y,z\n")
         for f, t in enumerate(scene.video_times, start=1):
