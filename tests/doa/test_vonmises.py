@@ -406,3 +406,37 @@ def test_a_quieter_talker_beside_a_louder_one_keeps_a_track_of_its_own(seed):
     got = tracks(FAST_MAP_CONFIG.kappa_y)
     assert got.size == 2 and abs(got[0]) < 5.0 and abs(got[1] - 45.0) < 5.0
     assert tracks(120.0).size == 1
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_talkers_taking_turns_keep_one_track_each(seed):
+    """Two talkers 45 degrees apart take 2 s turns. A track silent for a turn widens (eq. 5.56)
+    and the variational E-Z step (eq. 5.59) scores its talker's returning DOAs below clutter,
+    so they reach the birth pool; the birth test against the silent track's own distribution
+    (eq. 5.61 with that prior) gives them back to it: two identities in all, not four."""
+
+    def identities(continue_tracks: bool) -> int:
+        rng = np.random.default_rng(seed)
+        trk = make_tracker("vonmises", FAST_MAP_CONFIG, frame_period_s=0.032)
+        if not continue_tracks:
+            trk._continues_a_track = lambda *args: False
+        ids: set[int] = set()
+        for t in range(8 * 60):
+            az, w = [], []
+            if rng.random() < 0.85:
+                az.append(rng.normal(45.0 * ((t // 60) % 2), 2.0))
+                w.append(0.08)
+            ids |= set(trk.step(np.array(az), np.array(w)).ids.tolist())
+        return len(ids)
+
+    assert identities(True) == 2
+    assert identities(False) > 2
+
+
+def test_birth_log_ratio_with_a_track_prior_prefers_sequences_near_it():
+    y = np.deg2rad(np.array([[10.0, 10.0, 10.0], [60.0, 60.0, 60.0]]))
+    w = np.full(y.shape, 0.08)
+    uniform, _, _ = birth_log_ratio(y, w, 400.0, 200.0)
+    near, _, _ = birth_log_ratio(y, w, 400.0, 200.0, kappa0=np.array([10.0, 10.0]),
+                                 mu0=np.zeros(2))
+    assert near[0] > uniform[0] and near[1] < uniform[1]

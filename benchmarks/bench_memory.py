@@ -1,0 +1,122 @@
+"""Peak memory of the file commands against the recording's length.
+
+Builds long 4-microphone recordings by repeating the shared real ReSpeaker recordings (all
+six files one after the other, as many times as needed; 16-bit PCM like the originals), runs
+``avtrack localize`` and ``avtrack track-audio`` on each length in a fresh process, and prints
+the process's peak resident memory (``ru_maxrss``) with the ratio of each length's peak to the
+shortest one's. An 8-microphone recording is made the same way from a free-field simulation
+when ``--eight`` is given.
+
+    python benchmarks/bench_memory.py --minutes 1 10
+    python benchmarks/bench_memory.py --minutes 1 20 --eight
+
+A length's peak should be close to the shortest one's: the commands read the audio in blocks
+and write their rows as they are produced.
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import soundfile as sf
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = ROOT / ".." / "shared" / "data" / "realaudio" / "respeaker"
+
+CHILD = """
+import resource, sys, time
+from avtrack.cli.main import main
+t0 = time.perf_counter()
+rc = main(sys.argv[1:])
+wall = time.perf_counter() - t0
+peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+print("__PEAK__", rc, peak_kib, wall)
+"""
+
+
+def build(out: Path, sources: list[np.ndarray], fs: int, minutes: float) -> Path:
+    """A 16-bit WAV of ``minutes`` made of ``sources`` ``(channels, n)`` repeated, written
+    block by block."""
+    n_total = int(minutes * 60 * fs)
+    with sf.SoundFile(out, "w", fs, sources[0].shape[0], "PCM_16") as fh:
+        done, k = 0, 0
+        while done < n_total:
+            x = sources[k % len(sources)]
+            take = min(x.shape[1], n_total - done)
+            fh.write(x[:, :take].T)
+            done, k = done + take, k + 1
+    return out
+
+
+def run(argv: list[str]) -> tuple[float, float]:
+    """Peak RSS (MB) and wall time (s) of ``avtrack argv`` in a fresh process."""
+    proc = subprocess.run([sys.executable, "-c", CHILD, *argv], capture_output=True, text=True,
+                          check=False)
+    line = [x for x in proc.stdout.splitlines() if x.startswith("__PEAK__")]
+    if proc.returncode or not line:
+        raise SystemExit(f"avtrack {' '.join(argv)} failed:\n{proc.stderr[-2000:]}")
+    _, rc, kib, wall = line[-1].split()
+    if int(rc) != 0:
+        raise SystemExit(f"avtrack {' '.join(argv)} exited {rc}:\n{proc.stderr[-2000:]}")
+    return int(kib) / 1024.0, float(wall)
+
+
+def real_sources() -> tuple[list[np.ndarray], int, Path]:
+    files = sorted(SHARED.glob("*/*/*.wav"))
+    if not files:
+        raise SystemExit(f"no ReSpeaker recordings under {SHARED.resolve()}")
+    xs, fs = [], 16000
+    for f in files:
+        x, fs = sf.read(f, dtype="float64", always_2d=True)
+        xs.append(x.T)
+    return xs, fs, SHARED / "respeaker4.json"
+
+
+def eight_sources() -> tuple[list[np.ndarray], int, str]:
+    """A 30 s simulated meeting recorded by the built-in 8-microphone circle ``av163``."""
+    from avtrack.io.scenario import validate_scenario
+    from avtrack.simulate.library import named_scenario
+    from avtrack.simulate.scene import simulate_scene
+
+    raw = named_scenario("meeting", 0, 30.0)
+    raw["array"] = {**raw["array"], "name": "av163", "hrir": False}
+    scene = simulate_scene(validate_scenario(raw))
+    return [scene.audio / max(1.0, float(np.abs(scene.audio).max()) * 1.01)], 16000, "av163"
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--minutes", type=float, nargs="+", default=[1.0, 10.0])
+    p.add_argument("--commands", nargs="+", default=["localize", "track-audio"])
+    p.add_argument("--eight", action="store_true", help="also an 8-microphone recording")
+    args = p.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        sets = [("ReSpeaker 4-mic (real, repeated)", *real_sources())]
+        if args.eight:
+            sets.append(("AV16.3 8-mic circle (simulated, repeated)", *eight_sources()))
+        print("| recording | command | minutes | peak RSS (MB) | vs shortest | wall (s) | RF |")
+        print("|---|---|---:|---:|---:|---:|---:|")
+        for label, sources, fs, array in sets:
+            for command in args.commands:
+                first = None
+                for minutes in args.minutes:
+                    wav = build(work / f"rec-{minutes:g}.wav", sources, fs, minutes)
+                    extra = ["--tracker", "vonmises"] if command == "track-audio" else []
+                    peak, wall = run([command, str(wav), "--array", str(array), "-o",
+                                      str(work / "out.csv"), "--quiet", *extra])
+                    first = first or peak
+                    print(f"| {label} | {command} | {minutes:g} | {peak:.0f} | "
+                          f"{peak / first:.2f} | {wall:.0f} | {wall / (60 * minutes):.3f} |",
+                          flush=True)
+                    wav.unlink()
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
