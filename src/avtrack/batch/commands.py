@@ -224,8 +224,8 @@ def _mot_folder(folder: Path) -> tuple[dict[str, str], dict[str, Any]]:
                  "gt": "gt/gt.txt"}  # fmt: skip
         defaults = {**_scene_camera(folder), "appearance": "cosine"}
         return {k: str(folder / v) for k, v in paths.items()}, defaults
-    paths = {"detections": folder / "det" / "det.txt", "gt": folder / "gt" / "gt.txt"}
-    return {k: str(v) for k, v in paths.items() if v.is_file()}, {}
+    files = {"detections": folder / "det" / "det.txt", "gt": folder / "gt" / "gt.txt"}
+    return {k: str(v) for k, v in files.items() if v.is_file()}, {}
 
 
 def _mot_benchmark(paths: Paths) -> str:
@@ -383,7 +383,7 @@ _add(BatchCommand(
     fields=("video", "config"),
     needs=(),
     output="tracks.csv",
-    arguments=lambda p: [p["input"]] + _option("--video", p, "video"),
+    arguments=lambda p: [p["input"], *_option("--video", p, "video")],
     from_folder=lambda folder: ({"input": str(folder)}, {}),
     score=_score_track_phd,
 ))  # fmt: skip

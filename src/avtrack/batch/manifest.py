@@ -168,7 +168,7 @@ def _expand_entry(entry: dict, grid: dict[str, list], base: Path, where: _Where)
     if extra:
         raise where.error(extra[0], "unknown field")
     name = entry.get("command")
-    if name not in COMMANDS:
+    if not isinstance(name, str) or name not in COMMANDS:
         raise where.error("command", f"expected one of {', '.join(COMMANDS)}, got {name!r}")
     command = COMMANDS[name]
     for field in PATH_FIELDS:

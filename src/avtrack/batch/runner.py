@@ -230,7 +230,7 @@ def _died(item: dict, what: str) -> dict[str, Any]:
 
 
 def _run_processes(items, todo, root, workers, finished) -> None:
-    for attempt in range(POOL_RETRIES + 1):
+    for _ in range(POOL_RETRIES + 1):
         broken = []
         with ProcessPoolExecutor(max_workers=min(workers, os.cpu_count() or 1)) as pool:
             futures = {pool.submit(run_item, items[i], root): i for i in todo}

@@ -18,6 +18,7 @@ examples:
   avtrack batch recordings.yaml -o results/ --scheduler local --workers 4   # a local Dask cluster
   avtrack batch recordings.yaml -o results/ --scheduler tcp://10.0.0.5:8786 # a Dask cluster
   avtrack batch smoke -o results/smoke                      # the built-in simulated manifest
+  avtrack bench smoke -o results/smoke                      # bench: another name of batch
 
 A manifest (YAML; paths relative to it):
   name: office
@@ -48,12 +49,13 @@ the parameters are added to), gt (MOT gt.txt or DOA CSV), gt_speech (RTTM). A pa
 command's option (tracker: gauss is --tracker gauss) or else a field of its --config
 (birth_frames: 3; visual.birth_frames: 3).
 
-Writes OUT/items/ID/ (the command's outputs, the scores' JSON, result.json written last) for
-each item, and OUT/results.csv and OUT/results.md: one row per item, its scores when ground
-truth is given, status ok or failed with the one-line error. A failing item does not stop the
-others. Run again with the same OUT, only the items not complete are run (--force: all).
-Exit status 1 when an item failed. The rows are the same whichever backend ran them (only the 'seconds' column differs). On a
-remote cluster, OUT and the inputs must be at the same paths on every worker.
+Writes OUT/items/ID/ for each item (the command's outputs, the scores' JSON, and result.json
+written last) and OUT/results.csv and OUT/results.md: one row per item, its scores when
+ground truth is given, status ok or failed with the one-line error. A failing item does not
+stop the others; the exit status is then 1. Run again with the same OUT, only the items not
+complete are run (--force: all). The rows are the same whichever backend ran them (only the
+'seconds' column differs). On a remote cluster, OUT and the inputs must be at the same paths
+on every worker.
 
 The --config YAML holds option values by name, e.g.:
   workers: 4
