@@ -183,11 +183,11 @@ def test_dask_local_cluster_gives_identical_rows(serial, tmp_path):
     items, rows = serial
     with distributed.LocalCluster(
         n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
-    ) as cluster, distributed.Client(cluster) as client:
-        by_client = run_items(items, tmp_path / "a", scheduler=client)[0]
-        by_address = run_items(items[:2], tmp_path / "b", scheduler=cluster.scheduler_address)[0]
-    assert _without_time(by_client) == _without_time(rows)
-    assert _without_time(by_address) == _without_time(rows[:2])
+    ) as cluster:
+        by_address = run_items(items, tmp_path / "a", scheduler=cluster.scheduler_address)[0]
+    by_local = run_items(items[:2], tmp_path / "b", scheduler="local", workers=2)[0]
+    assert _without_time(by_address) == _without_time(rows)
+    assert _without_time(by_local) == _without_time(rows[:2])
 
 
 def test_a_killed_dask_worker_does_not_stop_the_batch(serial, tmp_path):

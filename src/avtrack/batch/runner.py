@@ -277,7 +277,7 @@ def _run_dask(items, todo, root, scheduler, workers, finished) -> None:
     try:
         futures = client.map(run_item, [items[i] for i in todo], root=root, pure=False)
         index = {f.key: i for f, i in zip(futures, todo, strict=True)}
-        for f in as_completed(futures):
+        for f in as_completed(futures, loop=client.loop):
             i = index[f.key]
             try:
                 finished(i, f.result())
