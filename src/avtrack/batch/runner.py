@@ -62,9 +62,11 @@ def completed_row(root: str | Path, item: dict) -> dict[str, Any] | None:
         return None
 
 
-def run_item(item: dict, root: str) -> dict[str, Any]:
+def run_item(item: dict, root: str, since: float | None = None) -> dict[str, Any]:
     """Run one item into ``root/items/ID`` and return its result row; a failure is the row's
-    ``status`` and ``error``, never an exception.
+    ``status`` and ``error``, never an exception. An item completed at or after time
+    ``since`` (``time.time()``; an earlier try of this batch, whose worker died before its row
+    came back) is not run again: its row is returned.
 
     The command runs with one BLAS thread, whatever process runs it (this one, a local worker
     or a Dask worker): a BLAS reduction's order follows its thread count, and the rows of a
@@ -74,6 +76,14 @@ def run_item(item: dict, root: str) -> dict[str, Any]:
     from threadpoolctl import threadpool_limits
 
     folder = item_folder(root, item)
+    if since is not None:
+        try:
+            if (folder / MARKER).stat().st_mtime >= since:
+                done = completed_row(root, item)
+                if done is not None:
+                    return done
+        except FileNotFoundError:
+            pass
     tmp = folder.parent / f".{item['id']}.{uuid.uuid4().hex[:8]}.tmp"
     row: dict[str, Any] = {"item": item["id"], "command": item["command"],
                            "input": item["label"]}  # fmt: skip
@@ -186,6 +196,7 @@ def run_items(
     if workers < 1:
         raise ValueError(f"workers must be >= 1, got {workers}")
     root = Path(root).resolve()
+    since = time.time()
     (root / "items").mkdir(parents=True, exist_ok=True)
     _remove_temporaries(root)
     rows: list[dict[str, Any] | None] = [
@@ -204,12 +215,12 @@ def run_items(
         progress(reused, len(items))
     if todo:
         if scheduler is not None:
-            _run_dask(items, todo, str(root), scheduler, workers, finished)
+            _run_dask(items, todo, str(root), since, scheduler, workers, finished)
         elif workers == 1:
             for i in todo:
                 finished(i, run_item(items[i], str(root)))
         else:
-            _run_processes(items, todo, str(root), workers, finished)
+            _run_processes(items, todo, str(root), since, workers, finished)
     _remove_temporaries(root)
     return [r for r in rows if r is not None], reused
 
@@ -229,11 +240,11 @@ def _died(item: dict, what: str) -> dict[str, Any]:
     return row
 
 
-def _run_processes(items, todo, root, workers, finished) -> None:
+def _run_processes(items, todo, root, since, workers, finished) -> None:
     for _ in range(POOL_RETRIES + 1):
         broken = []
         with ProcessPoolExecutor(max_workers=min(workers, os.cpu_count() or 1)) as pool:
-            futures = {pool.submit(run_item, items[i], root): i for i in todo}
+            futures = {pool.submit(run_item, items[i], root, since): i for i in todo}
             pending = set(futures)
             while pending:
                 complete, pending = wait(pending, return_when=FIRST_COMPLETED)
@@ -262,7 +273,7 @@ def connect(scheduler: str):
                          f"{CONNECT_TIMEOUT_S:g} s ({one_line(exc)})") from None
 
 
-def _run_dask(items, todo, root, scheduler, workers, finished) -> None:
+def _run_dask(items, todo, root, since, scheduler, workers, finished) -> None:
     from distributed import Client, LocalCluster, as_completed
 
     cluster = None
@@ -275,7 +286,8 @@ def _run_dask(items, todo, root, scheduler, workers, finished) -> None:
     else:
         client = connect(scheduler)
     try:
-        futures = client.map(run_item, [items[i] for i in todo], root=root, pure=False)
+        futures = client.map(run_item, [items[i] for i in todo], root=root, since=since,
+                             pure=False)
         index = {f.key: i for f, i in zip(futures, todo, strict=True)}
         for f in as_completed(futures, loop=client.loop):
             i = index[f.key]
