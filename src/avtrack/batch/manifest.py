@@ -266,8 +266,10 @@ def resolve_input(spec: Any, base: Path, where: _Where, field: str) -> str:
 def _item(command: str, label: str | None, spec: str | None, paths: dict[str, str],
           params: dict[str, Any]) -> dict:
     if label is None:
-        source = spec if spec is not None else next(iter(paths.values()), command)
-        label = source if ":" in source else Path(source).stem
+        if spec is not None:  # a named scene as it is, a folder by its name
+            label = spec if ":" in spec else Path(spec).name
+        else:  # the first path's file name without its extension
+            label = Path(next(iter(paths.values()), command)).stem
     record = json.dumps([command, label, spec, sorted(paths.items()), sorted(params.items(),
                         key=str)], default=str)  # fmt: skip
     digest = hashlib.sha256(record.encode()).hexdigest()[:8]
