@@ -204,7 +204,7 @@ def test_top_level_help_imports_no_command():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert "HEAVY []" in out
-    for name in ("track-mot", "track-av", "eval", "bench"):
+    for name in ("track-mot", "track-av", "eval", "batch"):
         assert f"\n    {name}" in out
 
 

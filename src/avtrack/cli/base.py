@@ -10,7 +10,7 @@ suite files: ``FILE: a.b: what is wrong``):
 * a library config dataclass (``OVBTConfig``, ``PHDConfig`` ...):
   :func:`avtrack.config.load_config` reads the file and checks it field by field against the
   dataclass;
-* the command's own options (``demo``, ``simulate``, ``eval``, ``bench``):
+* the command's own options (``demo``, ``simulate``, ``eval``, ``batch``):
   :func:`add_config_option` adds ``--config`` whose keys are the options' names.
 
 In both, options given on the command line override the file, and the file is checked before
@@ -40,11 +40,14 @@ def add_command(
     help: str,
     description: str | None = None,
     epilog: str | None = None,
+    aliases: tuple[str, ...] = (),
 ) -> argparse.ArgumentParser:
     """A sub-command's parser: one-line ``help`` in the command list, ``description`` and the
-    examples block ``epilog`` (kept as written) in its ``--help``."""
+    examples block ``epilog`` (kept as written) in its ``--help``; ``aliases``, other names
+    of the command."""
     return subparsers.add_parser(
-        name, help=help, description=description, epilog=epilog, formatter_class=HelpFormatter
+        name, help=help, description=description, epilog=epilog, formatter_class=HelpFormatter,
+        aliases=list(aliases),
     )
 
 
@@ -228,7 +231,9 @@ def apply_config_file(args: argparse.Namespace, settings: Mapping[str, argparse.
 #: Arguments that name files a command writes.
 OUTPUT_ARGS = ("output", "json", "plot", "markdown", "report")
 #: Commands whose ``--output`` is a folder.
-FOLDER_OUTPUTS = ("track-av", "demo", "simulate", "bench", "robot-sim")
+FOLDER_OUTPUTS = ("track-av", "demo", "simulate", "batch", "bench", "robot-sim")
+#: Commands whose output folder, when not empty, is resumed rather than refused.
+RESUMED_OUTPUTS = ("batch", "bench")
 #: Output options that are folders in every command.
 FOLDER_ARGS = ("report",)
 
@@ -270,7 +275,8 @@ def check_outputs(args: argparse.Namespace) -> None:
                 raise InputError(f"{option} must be a folder; this is a file", out)
             if not folder and out.is_dir():
                 raise InputError(f"{option} must name a file; this is a folder", out)
-            if not force and (not folder or any(out.iterdir())):
+            resumed = folder and getattr(args, "command", None) in RESUMED_OUTPUTS
+            if not force and not resumed and (not folder or any(out.iterdir())):
                 what = "folder is not empty" if folder else "file exists"
                 raise InputError(f"the output {what}; give --force to overwrite it", out)
         parent = out if (folder and out.is_dir()) else out.parent

@@ -26,8 +26,11 @@ COMMAND_MODULES = (
     "robot_sim",
     "track_phd",
     "eval_cmd",
-    "bench",
+    "batch",
 )
+
+#: Other names of commands: alias -> command.
+ALIASES = {"bench": "batch"}
 
 
 #: One line of help per command, for ``avtrack --help`` without importing every command
@@ -44,13 +47,23 @@ COMMAND_HELP = {
     "robot-sim": "simulate a moving robot head tracking and servoing people (thesis §3.2)",
     "track-phd": "audio-visual SMC-PHD tracking of AV16.3 (particle flow, Liu et al.)",
     "eval": "score a result against ground truth",
-    "bench": "run a suite of scenes x tasks x parameters (locally or on a Dask cluster)",
+    "batch": "run a manifest of recordings x commands x parameters (serially, in processes or "
+             "on a Dask cluster), scored, resumable",
 }
 
 
 def command_name(module: str) -> str:
     """The sub-command a module of :data:`COMMAND_MODULES` registers."""
     return module.removesuffix("_cmd").replace("_", "-")
+
+
+def module_of(command: str) -> str:
+    """The module of :data:`COMMAND_MODULES` that registers ``command`` (or its alias)."""
+    command = ALIASES.get(command, command)
+    for m in COMMAND_MODULES:
+        if command_name(m) == command:
+            return m
+    raise ValueError(f"unknown command {command!r}")
 
 
 def build_parser(only: tuple[str, ...] | None = None) -> argparse.ArgumentParser:
@@ -68,14 +81,16 @@ def build_parser(only: tuple[str, ...] | None = None) -> argparse.ArgumentParser
         if only is None or name in only:
             importlib.import_module(f"avtrack.cli.{name}").register(sub)
         else:
-            sub.add_parser(command_name(name), help=COMMAND_HELP.get(command_name(name)),
-                           add_help=False)
+            cmd = command_name(name)
+            sub.add_parser(cmd, help=COMMAND_HELP.get(cmd), add_help=False,
+                           aliases=[a for a, c in ALIASES.items() if c == cmd])
     return parser
 
 
 def _modules_for(argv: list[str]) -> tuple[str, ...]:
     """The command module that ``argv`` calls (none for ``avtrack --help`` and the like)."""
     first = next((a for a in argv if not a.startswith("-")), None)
+    first = ALIASES.get(first, first) if first else first
     return tuple(m for m in COMMAND_MODULES if command_name(m) == first)
 
 

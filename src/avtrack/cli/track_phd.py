@@ -128,7 +128,12 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def ospa_t_of(result: PHDResult, seq) -> float:
     """OSPA-T of a filter's labelled estimates against ``posGT`` (presence from ``X_true``)."""
-    rows = result.rows(seq.frames)
+    return ospa_t_of_rows(result.rows(seq.frames), seq)
+
+
+def ospa_t_of_rows(rows: np.ndarray, seq) -> float:
+    """OSPA-T of estimate rows ``frame, id, x, y`` ``(K, 4)`` (:meth:`PHDResult.rows`, or the
+    output CSV read back) against ``posGT`` (presence from ``X_true``)."""
     ids = rows[:, 1].astype(np.int64)
     # An estimate without identity (id -1, e.g. the clustering filter's) is a track of its own.
     unlabelled = ids < 0
