@@ -109,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
                     wav = build(work / f"rec-{minutes:g}.wav", sources, fs, minutes)
                     extra = ["--tracker", "vonmises"] if command == "track-audio" else []
                     peak, wall = run([command, str(wav), "--array", str(array), "-o",
-                                      str(work / "out.csv"), "--quiet", *extra])
+                                      str(work / "out.csv"), "--quiet", "--force", *extra])
                     first = first or peak
                     print(f"| {label} | {command} | {minutes:g} | {peak:.0f} | "
                           f"{peak / first:.2f} | {wall:.0f} | {wall / (60 * minutes):.3f} |",

@@ -22,7 +22,7 @@ LAYERS = [
     ["simulate"],
     ["viz"],
     ["stream"],
-    ["pipelines", "batch"],
+    ["pipelines"],
     ["cli"],
 ]
 RANK = {name: i for i, names in enumerate(LAYERS) for name in names}

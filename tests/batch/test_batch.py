@@ -13,15 +13,15 @@ import time
 import pytest
 import yaml
 
-from avtrack.batch import (
+from avtrack.cli.batch import (
     MARKER,
     expand_manifest,
     item_folder,
     load_manifest,
     run_items,
 )
-from avtrack.batch import runner as batch_runner
-from avtrack.batch.runner import materialise
+from avtrack.cli.batch import runner as batch_runner
+from avtrack.cli.batch.runner import materialise
 from avtrack.cli.main import main
 from avtrack.errors import InputError
 

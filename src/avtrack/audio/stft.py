@@ -27,6 +27,11 @@ import scipy.signal
 WINDOWS = ("hann", "hamming")
 
 
+#: Time between STFT frames of the default configuration (128 samples at 16 kHz), seconds:
+#: the frame period of every localizer's heat maps and DOA tables.
+FRAME_HOP_S = 128 / 16000
+
+
 @dataclass(frozen=True)
 class STFTConfig:
     """STFT parameters.

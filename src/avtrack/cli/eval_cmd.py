@@ -14,6 +14,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
@@ -164,7 +165,7 @@ time.""",
     doa.add_argument(
         "--period",
         type=float,
-        default=0.008,
+        default=FRAME_HOP_S,
         metavar="SECONDS",
         help="frame period used to align the files by time (default: %(default)s)",
     )

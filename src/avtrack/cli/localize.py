@@ -209,7 +209,7 @@ def run(args: argparse.Namespace) -> int:
             sink=out.write, keep_table=truth is not None, keep_heat=args.plot is not None,
             progress=update,
         )
-    if args.plot is not None:
+    if args.plot is not None and result.heat is not None:
         plot_heatmap(args.plot, result.heat, grid, f"{args.method}: {args.audio.name}", truth)
     if args.verbose:
         print(

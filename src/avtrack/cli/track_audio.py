@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.cli import progress
 from avtrack.cli.base import (
     add_array_option,
@@ -42,7 +43,7 @@ from avtrack.errors import InputError
 from avtrack.io.doa import DOACsvWriter, DOATable, read_doa_csv, write_doa_csv
 from avtrack.pipelines import TrackRun, track_recording
 
-HOP_S = 0.008
+HOP_S = FRAME_HOP_S
 
 EXAMPLES = """\
 examples:

@@ -15,8 +15,7 @@ from avtrack.cli.base import add_command, add_common, add_output_option
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.av163 import load_av163
-from avtrack.metrics.ospa import ospa_sequence, ospa_t
-from avtrack.phd import PHD_FILTERS, PHDConfig, PHDResult
+from avtrack.phd import PHD_FILTERS, PHDConfig
 from avtrack.phd.base import write_tracks_csv
 from avtrack.phd.likelihood import (
     VISUAL_SOURCES,
@@ -26,13 +25,14 @@ from avtrack.phd.likelihood import (
     av163_visual,
     video_measurements,
 )
-
-#: OSPA cut-off (pixels) and order used for every report.
-OSPA_CUTOFF = 50.0
-OSPA_ORDER = 2
-#: OSPA-T cut-off and label penalty (pixels) of the SMC-PHD authors' released evaluation.
-OSPA_T_CUTOFF = 65.0
-OSPA_T_LABEL_PENALTY = 25.0
+from avtrack.phd.scoring import (
+    OSPA_CUTOFF,
+    OSPA_ORDER,
+    OSPA_T_CUTOFF,
+    OSPA_T_LABEL_PENALTY,
+    ospa_of,
+    ospa_t_of,
+)
 
 EXAMPLES = """\
 examples:
@@ -126,27 +126,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     add_common(p, run)
 
 
-def ospa_t_of(result: PHDResult, seq) -> float:
-    """OSPA-T of a filter's labelled estimates against ``posGT`` (presence from ``X_true``)."""
-    return ospa_t_of_rows(result.rows(seq.frames), seq)
-
-
-def ospa_t_of_rows(rows: np.ndarray, seq) -> float:
-    """OSPA-T of estimate rows ``frame, id, x, y`` ``(K, 4)`` (:meth:`PHDResult.rows`, or the
-    output CSV read back) against ``posGT`` (presence from ``X_true``)."""
-    ids = rows[:, 1].astype(np.int64)
-    # An estimate without identity (id -1, e.g. the clustering filter's) is a track of its own.
-    unlabelled = ids < 0
-    ids[unlabelled] = ids.max(initial=0) + 1 + np.arange(int(unlabelled.sum()))
-    estimates = []
-    for f in seq.frames:
-        on = rows[:, 0] == f
-        estimates.append((ids[on], rows[on, 2:4]))
-    truths = [np.where(seq.present[t][:, None], seq.positions[:, t], np.nan)
-              for t in range(seq.n_frames)]
-    return ospa_t(estimates, truths, OSPA_T_CUTOFF, OSPA_ORDER, OSPA_T_LABEL_PENALTY).mean
-
-
 def run(args: argparse.Namespace) -> int:
     config = load_config(args.config, PHDConfig)
     if not args.folder.is_dir():
@@ -182,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
         result = tracker.run(frames)
     write_tracks_csv(args.output, result.rows(seq.frames))
     truth = av163_truth(seq)
-    ospa = ospa_sequence(result.positions(), truth, OSPA_CUTOFF, OSPA_ORDER)
+    ospa = ospa_of(result, truth)
     ospat = ospa_t_of(result, seq)
     if args.plot:
         from avtrack.viz.plots import plot_phd_tracks

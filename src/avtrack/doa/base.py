@@ -21,6 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.io.doa import DOATable, wrap_azimuth
 from avtrack.registry import Registry
 
@@ -279,7 +280,7 @@ class DOASequence:
         mode: str = "mean",
         peaks_only: bool = False,
         floor: float = 0.0,
-        frame_period_s: float = 0.008,
+        frame_period_s: float = FRAME_HOP_S,
         baseline: str = "none",
     ) -> DOASequence:
         """Observations from heat maps over fixed candidate directions.
@@ -383,7 +384,7 @@ class DOASequence:
             if uf.size > 1:
                 frame_period_s = float(np.median(np.diff(rows.time_s[first]) / np.diff(uf)))
             else:
-                frame_period_s = 0.008
+                frame_period_s = FRAME_HOP_S
         if not frame_period_s > 0:
             raise ValueError(f"frame_period_s must be > 0, got {frame_period_s!r}")
         offset = float(np.median(rows.time_s - f * frame_period_s))

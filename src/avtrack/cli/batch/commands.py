@@ -298,7 +298,7 @@ def tracker_frame_times(tracks, truth, step: int, hop_s: float, duration_s: floa
 def _score_track_audio(paths: Paths, folder: Path, params: Mapping[str, Any]) -> dict:
     if "gt" not in paths:
         return {}
-    from avtrack.cli.track_audio import HOP_S
+    from avtrack.audio.stft import FRAME_HOP_S as HOP_S
     from avtrack.io.doa import read_doa_csv
     from avtrack.metrics.doa_tracking import evaluate_tracks
 
@@ -366,10 +366,10 @@ def _score_track_phd(paths: Paths, folder: Path, params: Mapping[str, Any]) -> d
     ``avtrack track-phd`` prints them."""
     import numpy as np
 
-    from avtrack.cli.track_phd import OSPA_CUTOFF, OSPA_ORDER, ospa_t_of_rows
     from avtrack.io.av163 import load_av163
     from avtrack.metrics.ospa import ospa_sequence
     from avtrack.phd.likelihood import av163_truth
+    from avtrack.phd.scoring import OSPA_CUTOFF, OSPA_ORDER, ospa_t_of_rows
 
     seq = load_av163(Path(paths["input"]), int(params["seq"]), int(params["cam"]))
     rows = np.loadtxt(folder / "tracks.csv", delimiter=",", skiprows=1, ndmin=2)

@@ -92,7 +92,8 @@ truth is given. Resumes: items already complete are not run again.""",
 
 
 def run(args: argparse.Namespace) -> int:
-    from avtrack.batch import load_manifest, markdown_table, run_items, write_csv
+    from avtrack.cli.batch.manifest import load_manifest
+    from avtrack.cli.batch.runner import markdown_table, run_items, write_csv
     from avtrack.io.base import atomic_write
 
     if args.workers < 1:

@@ -40,7 +40,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from avtrack.batch.commands import COMMANDS, PATH_FIELDS, RESERVED, options_of
+from avtrack.cli.batch.commands import COMMANDS, PATH_FIELDS, RESERVED, options_of
 from avtrack.errors import InputError
 from avtrack.io.base import read_yaml_file
 

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from avtrack.batch.commands import COMMANDS, command_line, run_cli
+from avtrack.cli.batch.commands import COMMANDS, command_line, run_cli
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 
@@ -178,7 +178,7 @@ def run_items(
     Parameters
     ----------
     items : sequence of dict
-        Work items from :func:`~avtrack.batch.manifest.load_manifest`.
+        Work items from :func:`~avtrack.cli.batch.manifest.load_manifest`.
     root : str or Path
         The output folder (items go to ``root/items/ID``; named scenes to ``root/scenes``).
         On a cluster, a folder every worker sees at the same path.
