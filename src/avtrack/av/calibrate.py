@@ -31,7 +31,8 @@ Fit.
 1. Exhaustive search (camera at the array's centre, where the yaw only adds to every
    predicted azimuth): yaw every degree, focal lengths of horizontal fields of view 20-150
    degrees; the score of a hypothesis is the number of audio directions within
-   :data:`MATCH_DEG` of a box.
+   :data:`MATCH_DEG` of a box, less the number expected by chance (from how often the
+   recording's audio directions fall near the predicted boxes).
 2. Least squares with a Cauchy loss from the best hypothesis (``scipy.optimize.least_squares``),
    each audio direction re-associated with its nearest box between rounds; then the inliers
    (residual within 3 robust standard deviations) refitted with a plain quadratic loss.
@@ -222,20 +223,35 @@ def _nearest(ev: CameraEvidence, resid: np.ndarray) -> np.ndarray:
 
 
 def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
-    """Yaw and focal length of the hypothesis matching most audio directions, and that count
-    (camera at the array's centre)."""
+    """Yaw and focal length of the hypothesis whose matches most exceed chance, and its number
+    of matched audio directions (camera at the array's centre).
+
+    A direction matches when a box of its frame is predicted within :data:`MATCH_DEG`. Its
+    chance of matching is the share of all the recording's audio directions within
+    :data:`MATCH_DEG` of the frame's predicted boxes: without it, a camera of a tiny field of
+    view that puts every box on the direction heard most would win."""
     starts = _starts(ev.direction)
+    first = ev.azimuth_deg[starts]
+    # share of the audio directions within MATCH_DEG of each whole degree
+    hist = np.bincount(np.floor(first + 180.0).astype(np.int64) % 360, minlength=360)
+    win = round(MATCH_DEG)
+    near = sum(np.roll(hist, k) for k in range(-win, win + 1)) / max(first.shape[0], 1)
     yaws = np.arange(-180.0, 180.0, 1.0)
     best = (0.0, 1.0, -1)
+    best_score = -np.inf
     for hfov in np.arange(20.0, 151.0, 5.0):
         f = 0.5 * ev.width / math.tan(math.radians(hfov) / 2.0)
         g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
         off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
         hit = np.abs(wrap_azimuth(off[:, None] - yaws[None, :])) < MATCH_DEG
-        score = np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0)
+        hits = np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0)
+        cell = np.floor(g[:, None] + yaws[None, :] + 180.0).astype(np.int64) % 360
+        chance = np.minimum(np.add.reduceat(near[cell], starts, axis=0), 1.0).sum(axis=0)
+        score = hits - chance
         j = int(np.argmax(score))
-        if score[j] > best[2]:
-            best = (float(yaws[j]), f, int(score[j]))
+        if score[j] > best_score:
+            best_score = float(score[j])
+            best = (float(yaws[j]), f, int(hits[j]))
     return best
 
 
@@ -352,8 +368,9 @@ def fit_camera(
     if score < min_matches:
         raise ValueError(_too_little(score, ev.n_directions, min_matches))
     x = np.array([yaw0, math.log(f0)] + ([pitch_deg] if fit_pitch else []))
-    lo = [-np.inf, math.log(0.05 * ev.width)] + ([-89.0] if fit_pitch else [])
-    hi = [np.inf, math.log(20.0 * ev.width)] + ([89.0] if fit_pitch else [])
+    f_lo, f_hi = (0.5 * ev.width / math.tan(math.radians(a)) for a in (85.0, 5.0))  # 170-10°
+    lo = [-np.inf, math.log(f_lo)] + ([-89.0] if fit_pitch else [])
+    hi = [np.inf, math.log(f_hi)] + ([89.0] if fit_pitch else [])
     idx = np.zeros(0, dtype=np.int64)
     for _ in range(4):  # associate, fit robustly, re-associate
         yaw, pitch, f = _params(x, fit_pitch, pitch_deg)
