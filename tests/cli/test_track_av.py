@@ -153,13 +153,14 @@ def test_eval_persons_scores_the_out_of_view_directions(main, tmp_path, capsys):
     assert "header must be" in capsys.readouterr().err
 
 
-def _recording_files(tmp_path):
-    """The out-of-image scene as a user's recording: camera file in the array frame."""
+def _recording_files(tmp_path, scene_dir=None):
+    """A scene (default: the out-of-image one) as a user's recording: camera file in the
+    array frame."""
     import json
 
     import yaml
 
-    scene_dir = out_of_image()
+    scene_dir = out_of_image() if scene_dir is None else scene_dir
     cam = json.loads((scene_dir / "camera.json").read_text())
     sc = yaml.safe_load((scene_dir / "scene.yaml").read_text())
     arr = np.asarray(sc["array"]["position"], float)
@@ -343,3 +344,46 @@ def test_track_av_voices_needs_the_array_recording(main, tmp_path, capsys):
                  str(tmp_path / "cam.yaml"), "--fps", "25", "--detections",
                  str(scene_dir / "detections.txt"), "-o", str(tmp_path / "y"), "--voices"]) == 2
     assert "--voices" in capsys.readouterr().err
+
+
+def test_track_av_camera_auto_writes_the_estimated_camera(main, tmp_path, capsys):
+    """--camera auto: the camera estimated from the recording, printed and written as
+    OUT_DIR/CAMERA.yaml, which a later run reads back and finds in agreement."""
+    import yaml
+
+    from avtrack.io.camera import read_camera_file
+
+    scene_dir, camera = _recording_files(tmp_path, walkout()[0])
+    true = read_camera_file(camera)
+    out = tmp_path / "auto"
+    base = ["track-av", "--detections", str(scene_dir / "detections.txt"), "--fps", "25",
+            "--doa", str(scene_dir / "gt" / "doa.csv")]
+    assert main([*base, "--camera", "auto", "--image-size", "640x480", "-o", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "camera in the array's frame: yaw" in printed and "CAMERA.yaml" in printed
+    est = read_camera_file(out / "CAMERA.yaml")
+    assert abs(est.yaw_deg - true.yaw_deg) < 3.0
+    assert abs(est.fx / true.fx - 1.0) < 0.1
+    assert (out / "tracks.txt").is_file()
+    # the written file, passed back, agrees with the recording: no warning
+    assert main([*base, "--camera", str(out / "CAMERA.yaml"), "-o", str(tmp_path / "again"),
+                 "--strict"]) == 0
+    assert "warning" not in capsys.readouterr().err
+    # a camera turned by 40 degrees: a warning, and with --strict an error
+    turned = yaml.safe_load(camera.read_text())
+    turned["yaw_deg"] += 40.0
+    bad = tmp_path / "turned.yaml"
+    bad.write_text(yaml.safe_dump(turned))
+    assert main([*base, "--camera", str(bad), "-o", str(tmp_path / "turned"), "-q"]) == 0
+    assert "warning: audio directions of the people seen are 40 deg" in capsys.readouterr().err
+    assert main([*base, "--camera", str(bad), "-o", str(tmp_path / "strict"), "--strict"]) == 2
+    assert "--strict" in capsys.readouterr().err
+    # without the image size there is no camera to estimate
+    assert main([*base, "--camera", "auto", "-o", str(tmp_path / "nosize")]) == 2
+    assert "--image-size" in capsys.readouterr().err
+    # the only person seen talking stands in one place: too little evidence
+    still, _ = _recording_files(tmp_path)
+    assert main(["track-av", "--detections", str(still / "detections.txt"), "--fps", "25",
+                 "--doa", str(still / "gt" / "doa.csv"), "--camera", "auto", "--image-size",
+                 "640x480", "-o", str(tmp_path / "still")]) == 2
+    assert "too little evidence" in capsys.readouterr().err

@@ -84,6 +84,11 @@ x axis = azimuth 0, z up; the array's centre at the origin):
   pitch_deg: 0.0       # ... and elevation
   avtrack track-av --video rec.mp4 --audio rec.wav --array nao4 --camera camera.yaml -o out
   avtrack track-av --detections det.txt --fps 25 --doa doa.csv --camera camera.yaml -o out
+No camera file: --camera auto estimates yaw, focal length (and pitch from a DOA CSV's
+elevations) from the people seen talking, prints it with its uncertainty and writes
+OUT_DIR/CAMERA.yaml; a camera file given is checked against the recording the same way
+(a warning names the likely mistake; --strict: exit 2):
+  avtrack track-av --video rec.mp4 --audio rec.wav --array nao4 --camera auto -o out
 
 The --config YAML holds PersonConfig fields with --model direction (the visual tracker's under
 "visual:"), e.g.:
@@ -121,7 +126,17 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
     add_array_option(rec, required=False,
                      note=", the microphones of --audio (positions in the array frame)")
     rec.add_argument("--camera", type=Path, metavar="CAMERA.yaml",
-                     help="camera intrinsics, image size and pose in the array frame (see below)")
+                     help="camera intrinsics, image size and pose in the array frame (see "
+                     "below), checked against the recording (a warning names a likely mistake); "
+                     "'auto': estimate the camera's yaw, pitch (when the DOA CSV has "
+                     "elevations) and focal length from the people seen talking, the camera "
+                     "at the array's centre, and write it as OUT_DIR/CAMERA.yaml")
+    rec.add_argument("--strict", action="store_true",
+                     help="a camera file that disagrees with the recording is an error (exit "
+                     "2), not a warning")
+    rec.add_argument("--image-size", metavar="WxH",
+                     help="--camera auto without --video: the image size of --detections, "
+                     "pixels (e.g. 640x480)")
     rec.add_argument("--detections", type=Path, metavar="DET.txt",
                      help="head or person detections (MOTChallenge det); default: detect in "
                      "--video's frames")
@@ -251,7 +266,9 @@ def run(args: argparse.Namespace) -> int:
     if not 0 < args.fov_fraction <= 1:
         raise InputError(f"--fov-fraction must be in (0, 1], got {args.fov_fraction}")
     own = [o for o in ("video", "audio", "camera", "detections", "doa", "fps", "detector",
-                       "array", "appearance") if getattr(args, o) is not None]
+                       "array", "appearance", "image_size") if getattr(args, o) is not None]
+    if args.strict:
+        own.append("strict")
     if args.voices and (args.model != "direction" or args.no_audio or args.seq is not None
                         or args.cam is not None or (args.scene is None and args.audio is None)):
         raise InputError("--voices beamforms the microphone array's recording: it needs "
@@ -262,7 +279,8 @@ def run(args: argparse.Namespace) -> int:
     if args.scene is None:
         return run_recording(args)
     if own:
-        raise InputError(f"--{own[0]} describes a recording of your own: give it without "
+        raise InputError(f"--{own[0].replace('_', '-')} describes a recording of your own: "
+                         f"give it without "
                          f"SCENE_DIR")
     if args.model == "direction" and not args.no_audio:
         return run_direction(args)
@@ -440,16 +458,20 @@ def run_recording(args: argparse.Namespace) -> int:
                          "or --detections, and --audio --array or --doa")
     if args.plot or args.mapping is not None:
         raise InputError("--plot and --mapping belong to --model image on a scene directory")
-    camera = read_camera_file(args.camera)
-    geometry = CameraGeometry(camera, np.zeros(3), 0.0)
+    auto = str(args.camera) == "auto" and not args.camera.is_file()
+    if auto and args.no_audio:
+        raise InputError("--camera auto estimates the camera from the people seen talking: it "
+                         "needs the audio (not --no-audio)")
+    camera = None if auto else read_camera_file(args.camera)
     video = None
     if args.video is not None:
         from avtrack.io.video import probe_video
 
         video = probe_video(args.video)
-        if video.image_size != (camera.width, camera.height):
+        if camera is not None and video.image_size != (camera.width, camera.height):
             raise InputError(f"the camera file says {camera.width}x{camera.height}, the video "
                              f"is {video.width}x{video.height}", args.camera)
+    image_size = _image_size(args, video, camera)
     fps = args.fps if args.fps is not None else (video.fps if video is not None else None)
     if fps is None or not (np.isfinite(fps) and 0 < fps <= 1000):
         raise InputError("--fps: give the frame rate (frames per second) when there is no "
@@ -529,6 +551,11 @@ def run_recording(args: argparse.Namespace) -> int:
             peaks = audio_peaks(heat.weights, heat.time_s, grid, fps, n_frames,
                                 floor=audio_peak_floor(PERSONS_LOCALIZER))
             span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
+    if peaks is not None:
+        camera = _calibrate(args, camera, dets, peaks, fps, image_size, n_frames)
+    if camera is None:
+        raise InputError("--camera auto needs the audio's directions")
+    geometry = CameraGeometry(camera, np.zeros(3), 0.0)
     vcfg = config.visual
     if args.appearance is None and appearance is not None and vcfg.appearance != "bhattacharyya":
         from dataclasses import replace
@@ -560,6 +587,85 @@ def run_recording(args: argparse.Namespace) -> int:
               f"{len(res.speech)} speaker turns of {len({s.speaker for s in res.speech})} "
               f"speakers -> {out} ({elapsed:.1f} s)")
     return 0
+
+
+def _image_size(args: argparse.Namespace, video, camera) -> tuple[int, int]:
+    """The image size: the video's, the camera file's, or --image-size."""
+    if args.image_size is not None:
+        if video is not None or camera is not None:
+            raise InputError("--image-size is for --camera auto without --video (the video or "
+                             "the camera file gives the size otherwise)")
+        try:
+            w, h = (int(t) for t in args.image_size.lower().split("x"))
+        except ValueError:
+            raise InputError(f"--image-size: expected WIDTHxHEIGHT in pixels (e.g. 640x480), "
+                             f"got {args.image_size!r}") from None
+        if w <= 0 or h <= 0:
+            raise InputError(f"--image-size must be positive, got {args.image_size!r}")
+        return w, h
+    if video is not None:
+        return video.image_size
+    if camera is not None:
+        return camera.width, camera.height
+    raise InputError("--camera auto without --video: give the detections' image size with "
+                     "--image-size WIDTHxHEIGHT")
+
+
+def _calibrate(args: argparse.Namespace, camera, dets, peaks, fps: float,
+               image_size: tuple[int, int], n_frames: int):
+    """--camera auto: the camera estimated from the recording, printed and written as
+    OUT_DIR/CAMERA.yaml; a camera file: checked against the recording (warnings; --strict:
+    an error). Returns the camera to track with."""
+    from avtrack.av.calibrate import camera_evidence, check_camera, fit_camera
+
+    elevations = None
+    if args.doa is not None:
+        from avtrack.io.doa import directions_per_frame, read_doa_csv
+
+        peaks, elevations = directions_per_frame(read_doa_csv(args.doa), fps, n_frames)
+    ev = camera_evidence(dets, peaks, fps, image_size, elevations)
+    if camera is None:
+        try:
+            with progress.activity("estimating the camera from the people seen talking",
+                                   args.quiet):
+                fit = fit_camera(ev)
+        except ValueError as exc:
+            raise InputError(f"--camera auto: {exc}") from None
+        out = args.output
+        if out.exists() and not out.is_dir():
+            raise InputError("output exists and is not a directory", out)
+        out.mkdir(parents=True, exist_ok=True)
+        _write_text(out / "CAMERA.yaml", camera_yaml(fit))
+        if not args.quiet:
+            print(f"{fit.summary()} -> {out / 'CAMERA.yaml'}")
+        return fit.camera
+    with progress.activity(f"checking {args.camera.name} against the recording", args.quiet):
+        chk = check_camera(camera, ev, name=args.camera.name)
+    for msg in chk.warnings:
+        if args.strict:
+            raise InputError(f"--strict: {msg}", args.camera)
+        print(f"warning: {msg}", file=sys.stderr)
+    if not args.quiet:
+        for note in chk.notes:
+            print(f"note: {note}", file=sys.stderr)
+        if chk.fit is not None and not chk.warnings:
+            print(f"{args.camera.name} agrees with the recording ({chk.fit.summary()})")
+    return camera
+
+
+def camera_yaml(fit) -> str:
+    """CAMERA.yaml of an estimated camera, its uncertainty and evidence as comments."""
+    import yaml
+
+    head = "\n".join("# " + line for line in _wrap(
+        "estimated by avtrack track-av --camera auto: " + fit.summary())) + "\n"
+    return head + yaml.safe_dump(fit.camera.to_json(), sort_keys=False)
+
+
+def _wrap(text: str) -> list[str]:
+    import textwrap
+
+    return textwrap.wrap(text, 95)
 
 
 def _print_summary(res, n_persons: int, out: Path, elapsed: float) -> None:

@@ -298,3 +298,20 @@ def azimuths_per_frame(table: DOATable, fps: float, n_frames: int) -> list[np.nd
         if on and 0 <= k < n_frames:
             out[k].append(a)
     return [np.unique(np.asarray(v, dtype=float)) for v in out]
+
+
+def directions_per_frame(
+    table: DOATable, fps: float, n_frames: int
+) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The active rows' azimuths and elevations of each video frame ``0 .. n_frames - 1`` (a
+    row belongs to the frame nearest its time): two lists of ``n_frames`` arrays, in row
+    order."""
+    az: list[list[float]] = [[] for _ in range(n_frames)]
+    el: list[list[float]] = [[] for _ in range(n_frames)]
+    idx = np.floor(table.time_s * fps + 0.5).astype(np.int64)
+    for k, a, e, on in zip(idx.tolist(), table.azimuth_deg.tolist(),
+                           table.elevation_deg.tolist(), table.active.tolist(), strict=True):
+        if on and 0 <= k < n_frames:
+            az[k].append(a)
+            el[k].append(e)
+    return ([np.asarray(v, dtype=float) for v in az], [np.asarray(v, dtype=float) for v in el])

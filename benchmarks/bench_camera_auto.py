@@ -1,0 +1,116 @@
+"""``track-av --camera auto`` on simulated scenes: the camera estimated from the recording
+against the true one.
+
+Per scene (``avtrack simulate walkout|meeting``, evaluation seeds >= 100): the true camera in
+the array's frame (``camera.json`` and the array's pose in ``scene.yaml``, turned into the
+array's frame as a user's CAMERA.yaml is), the estimate of :func:`avtrack.av.calibrate.fit_camera`
+from the scene's detections and the DP-RTF + EG peaks of its recording, the errors of yaw,
+pitch and focal length, and MOTA / IDF1 / DER of the direction-space tracker with each camera
+(the same detections, appearance and audio peaks).
+
+Usage::
+
+    python benchmarks/bench_camera_auto.py --work /tmp/avt/camauto [--seeds 100-103]
+        [--suites walkout meeting] [--duration 20]
+"""
+
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # one core, before NumPy loads BLAS
+
+import argparse  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+
+def array_frame_camera(scene):
+    """The scene's camera in its array's frame (position relative to the array centre, yaw
+    relative to the array's x axis)."""
+    from avtrack.av.persons_scene import scene_geometry
+    from avtrack.io.camera import PinholeCamera
+
+    g = scene_geometry(scene)
+    cam = g.camera
+    yaw = g.array_yaw_deg
+    c, s = np.cos(np.deg2rad(-yaw)), np.sin(np.deg2rad(-yaw))
+    rel = np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]]) @ (cam.position - g.array_position)
+    return PinholeCamera(cam.fx, cam.fy, cam.cx, cam.cy, cam.width, cam.height, rel,
+                         cam.yaw_deg - yaw, cam.pitch_deg)
+
+
+def score(scene, res) -> dict:
+    from avtrack.io.mot import read_mot
+    from avtrack.io.rttm import read_rttm
+    from avtrack.metrics.der import diarization_error_rate
+    from avtrack.metrics.mot import evaluate_mot
+
+    gt = read_mot(scene.path / "gt" / "gt.txt", kind="gt")
+    m = evaluate_mot(gt, res.tracks, n_frames=scene.n_frames)
+    der = diarization_error_rate(read_rttm(scene.path / "gt" / "speech.rttm"), res.speech)
+    return {"MOTA": m.MOTA, "IDF1": m.IDF1, "DER": 100 * der.rate}
+
+
+def run_scene(path: Path) -> dict:
+    from avtrack.audio.arrays import load_array
+    from avtrack.av.calibrate import camera_evidence, fit_camera
+    from avtrack.av.geometry import CameraGeometry
+    from avtrack.av.persons_scene import localize_scene, track_persons
+    from avtrack.io.doa import wrap_azimuth
+    from avtrack.io.scene import load_scene
+
+    scene = load_scene(path)
+    true = array_frame_camera(scene)
+    peaks, span = localize_scene(scene, load_array(path / "array.json"), scene.n_frames)
+    ev = camera_evidence(scene.detections, peaks, scene.fps, scene.image_size)
+    fit = fit_camera(ev)
+    est = fit.camera
+    row = {
+        "scene": path.name,
+        "yaw_err": float(wrap_azimuth(est.yaw_deg - true.yaw_deg)),
+        "yaw_std": fit.yaw_std_deg,
+        "pitch_err": est.pitch_deg - true.pitch_deg,
+        "f_err_pct": 100 * (est.fx / true.fx - 1),
+        "f_std_pct": 100 * fit.focal_std_px / true.fx,
+        "inliers": f"{fit.n_inliers}/{fit.n_directions}",
+    }
+    for name, cam in (("true", true), ("auto", est)):
+        res = track_persons(scene.detections, scene.appearance, peaks,
+                            CameraGeometry(cam, np.zeros(3), 0.0), scene.fps, scene.n_frames,
+                            azimuth_span_deg=span)
+        for k, v in score(scene, res).items():
+            row[f"{k}_{name}"] = v
+    return row
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--work", type=Path, required=True)
+    p.add_argument("--seeds", default="100-103")
+    p.add_argument("--suites", nargs="+", default=["walkout", "meeting"])
+    p.add_argument("--duration", type=float, default=20.0)
+    a = p.parse_args()
+    lo, _, hi = a.seeds.partition("-")
+    seeds = range(int(lo), int(hi or lo) + 1)
+    rows = []
+    for suite in a.suites:
+        for seed in seeds:
+            d = a.work / f"{suite}-{seed}"
+            if not (d / "scene.yaml").is_file():
+                subprocess.run([sys.executable, "-m", "avtrack.cli.main", "simulate", suite,
+                                "-o", str(d), "--seed", str(seed), "--duration",
+                                str(a.duration), "-q"], check=True)
+            row = run_scene(d)
+            rows.append(row)
+            print("  ".join(f"{k}={v:.2f}" if isinstance(v, float) else f"{k}={v}"
+                            for k, v in row.items()), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,586 @@
+r"""The camera in the microphone array's frame, estimated from the recording itself.
+
+A recording of one's own is tracked in the array's direction space (:mod:`avtrack.av.persons`)
+through a :class:`~avtrack.io.camera.PinholeCamera` given *in the array's frame*. People who
+talk while the camera sees them tie the two sensors together: the audio direction of a talker
+is the direction of one of the head boxes of that frame. :func:`fit_camera` estimates from
+these coincidences the camera's yaw, focal length and (when the audio directions carry
+elevations) pitch; :func:`check_camera` compares a given camera file with that estimate and
+names the likely mistake when they disagree.
+
+Model. The camera sits at ``p`` (array frame, metres; the array's centre unless given), with
+no roll, yaw :math:`\psi`, pitch :math:`\theta`, square pixels of focal length :math:`f` and the
+principal point at the image centre :math:`(c_x, c_y)`. A head box centred on ``(u, v)`` with
+height ``h`` pixels is a head of height ``H`` (:data:`~avtrack.av.geometry.HEAD_HEIGHT_M`) at
+the depth :math:`z = f H / h`, i.e. at camera coordinates
+
+.. math::
+
+    X_c = \frac{H}{h}\,(u - c_x,\; v - c_y,\; f), \qquad
+    A = R(\psi, \theta)^\top X_c + p,
+
+(``R`` the camera's rotation, rows right, down, forward: :attr:`PinholeCamera.R`), whose
+direction from the array is :math:`\mathrm{az} = \operatorname{atan2}(A_y, A_x)`,
+:math:`\mathrm{el} = \operatorname{atan2}(A_z, \lVert A_{xy} \rVert)`. An audio direction
+``k`` at frame ``t`` is explained by the nearest box of frame ``t``, residual
+:math:`r_k = \min_b \operatorname{wrap}(\mathrm{az}_k - \mathrm{az}(b))`, or by none (a talker
+out of view, an echo): those are the outliers.
+
+Fit.
+
+1. Exhaustive search (camera at the array's centre, where the yaw only adds to every
+   predicted azimuth): yaw every degree, focal lengths of horizontal fields of view 20-150
+   degrees; the score of a hypothesis is the number of audio directions within
+   :data:`MATCH_DEG` of a box, less the number expected by chance (from how often the
+   recording's audio directions fall near the predicted boxes).
+2. Least squares with a Cauchy loss from the best hypothesis (``scipy.optimize.least_squares``),
+   each audio direction re-associated with its nearest box between rounds; then the inliers
+   (residual within 3 robust standard deviations) refitted with a plain quadratic loss.
+3. Uncertainty: block bootstrap, the inliers resampled in blocks of :data:`BLOCK_S` seconds
+   (consecutive frames of one talker are not independent evidence).
+
+With azimuths only the pitch is hardly observable (it changes a predicted azimuth by a
+fraction of a degree for a head near the image's centre row): it is then held (0, or the given
+camera's) and reported as not measured.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from avtrack.av.geometry import HEAD_HEIGHT_M
+from avtrack.io.camera import PinholeCamera
+from avtrack.io.doa import wrap_azimuth
+from avtrack.io.mot import MOTData
+
+#: Residual (degrees) within which an audio direction counts as matching a box in the search.
+MATCH_DEG = 4.0
+
+#: Length in seconds of the blocks the bootstrap resamples.
+BLOCK_S = 2.0
+
+#: Fewest audio directions matched to a person in the image for a fit.
+MIN_MATCHES = 25
+
+#: Largest number of (audio direction, box) pairs kept (frames thinned evenly beyond it).
+MAX_PAIRS = 20000
+
+
+@dataclass(frozen=True)
+class CameraEvidence:
+    """Candidate pairs (audio direction, head box in the same frame) of a recording.
+
+    Attributes
+    ----------
+    direction : ndarray (P,) int
+        Index of the audio direction of each pair (pairs sorted by it; one direction has as
+        many pairs as its frame has boxes).
+    azimuth_deg, elevation_deg : ndarray (P,)
+        The audio direction (elevation NaN where not measured).
+    u, v, h : ndarray (P,)
+        The box's centre and height, pixels.
+    time_s : ndarray (P,)
+    width, height : int
+        Image size, pixels.
+    n_directions : int
+        Audio directions in frames with at least one box.
+    """
+
+    direction: np.ndarray
+    azimuth_deg: np.ndarray
+    elevation_deg: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    h: np.ndarray
+    time_s: np.ndarray
+    width: int
+    height: int
+    n_directions: int
+
+    def __post_init__(self) -> None:
+        n = np.shape(self.direction)[0]
+        for name in ("azimuth_deg", "elevation_deg", "u", "v", "h", "time_s"):
+            if np.shape(getattr(self, name)) != (n,):
+                raise ValueError(f"CameraEvidence: {name} must have shape ({n},), got "
+                                 f"{np.shape(getattr(self, name))}")
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError(f"CameraEvidence: image size must be positive, got "
+                             f"{self.width}x{self.height}")
+
+    @property
+    def n_pairs(self) -> int:
+        return int(self.direction.shape[0])
+
+    @property
+    def has_elevation(self) -> bool:
+        """Whether enough audio directions carry an elevation to measure the pitch."""
+        el = self.elevation_deg
+        return bool(np.sum(np.isfinite(el) & (np.abs(el) > 1e-9)) >= MIN_MATCHES)
+
+    def mirrored(self) -> CameraEvidence:
+        """The same evidence with every azimuth mirrored (``az -> -az``)."""
+        return replace(self, azimuth_deg=wrap_azimuth(-self.azimuth_deg))
+
+    def rotated(self, deg: float) -> CameraEvidence:
+        """The same evidence with every azimuth turned by ``deg``."""
+        return replace(self, azimuth_deg=wrap_azimuth(self.azimuth_deg + float(deg)))
+
+
+def camera_evidence(
+    detections: MOTData,
+    azimuths: list[np.ndarray],
+    fps: float,
+    image_size: tuple[int, int],
+    elevations: list[np.ndarray] | None = None,
+) -> CameraEvidence:
+    """The pairs (audio direction, box) of a recording.
+
+    Parameters
+    ----------
+    detections : MOTData
+        Head boxes (detections or visual tracks), frames 1-based.
+    azimuths : list of ndarray
+        Audio directions of each video frame ``0 .. n_frames - 1`` (localizer peaks,
+        :func:`~avtrack.av.persons_scene.audio_peaks`, or DOA rows), degrees.
+    fps : float
+    image_size : (int, int)
+        Width and height, pixels.
+    elevations : list of ndarray, optional
+        Elevations matching ``azimuths`` (NaN: not measured).
+    """
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"camera_evidence: fps must be > 0, got {fps!r}")
+    w, h = (int(s) for s in image_size)
+    n_frames = len(azimuths)
+    if elevations is not None and len(elevations) != n_frames:
+        raise ValueError(f"camera_evidence: elevations cover {len(elevations)} frames, "
+                         f"azimuths {n_frames}")
+    slices = detections.frame_slices(n_frames)
+    frames = [i for i in range(n_frames)
+              if len(azimuths[i]) and slices[i].stop > slices[i].start]
+    n_pairs = sum(len(azimuths[i]) * (slices[i].stop - slices[i].start) for i in frames)
+    if n_pairs > MAX_PAIRS:  # thin the frames evenly
+        frames = frames[:: math.ceil(n_pairs / MAX_PAIRS)]
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in ("d", "az", "el", "u", "v", "h", "t")}
+    k = 0
+    for i in frames:
+        sl = slices[i]
+        b = detections.boxes[sl]
+        az = np.asarray(azimuths[i], dtype=float).reshape(-1)
+        el = (np.full(az.shape, np.nan) if elevations is None
+              else np.asarray(elevations[i], dtype=float).reshape(-1))
+        nb = b.shape[0]
+        for j in range(az.shape[0]):
+            cols["d"].append(np.full(nb, k))
+            cols["az"].append(np.full(nb, az[j]))
+            cols["el"].append(np.full(nb, el[j]))
+            cols["u"].append(b[:, 0] + 0.5 * b[:, 2])
+            cols["v"].append(b[:, 1] + 0.5 * b[:, 3])
+            cols["h"].append(b[:, 3])
+            cols["t"].append(np.full(nb, i / fps))
+            k += 1
+    cat = {key: (np.concatenate(v) if v else np.zeros(0)) for key, v in cols.items()}
+    ok = np.isfinite(cat["u"]) & np.isfinite(cat["v"]) & (cat["h"] > 0)
+    return CameraEvidence(cat["d"][ok].astype(np.int64), cat["az"][ok], cat["el"][ok],
+                          cat["u"][ok], cat["v"][ok], cat["h"][ok], cat["t"][ok], w, h, k)
+
+
+def _rotation(yaw_deg: float, pitch_deg: float) -> np.ndarray:
+    """Rows right, down, forward of a camera without roll (as :attr:`PinholeCamera.R`)."""
+    psi, th = math.radians(yaw_deg), math.radians(pitch_deg)
+    cp, sp, ct, st = math.cos(psi), math.sin(psi), math.cos(th), math.sin(th)
+    return np.array([[sp, -cp, 0.0], [st * cp, st * sp, -ct], [ct * cp, ct * sp, st]])
+
+
+def predicted_directions(
+    ev: CameraEvidence, yaw_deg: float, pitch_deg: float, focal_px: float,
+    position: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Azimuth and elevation (degrees, ``(P,)``) from the array of each pair's box."""
+    s = HEAD_HEIGHT_M / np.maximum(ev.h, 1.0)
+    xc = np.column_stack([s * (ev.u - 0.5 * ev.width), s * (ev.v - 0.5 * ev.height),
+                          s * focal_px])  # X_c = (H / h) (u - cx, v - cy, f)
+    a = xc @ _rotation(yaw_deg, pitch_deg) + position  # A = Rᵀ X_c + p
+    az = np.degrees(np.arctan2(a[:, 1], a[:, 0]))
+    el = np.degrees(np.arctan2(a[:, 2], np.hypot(a[:, 0], a[:, 1])))
+    return az, el
+
+
+def _starts(direction: np.ndarray) -> np.ndarray:
+    """First pair of each audio direction (pairs sorted by direction)."""
+    return np.flatnonzero(np.r_[True, direction[1:] != direction[:-1]])
+
+
+def _nearest(ev: CameraEvidence, resid: np.ndarray) -> np.ndarray:
+    """Index of the pair with the smallest ``|resid|`` of each audio direction."""
+    starts = _starts(ev.direction)
+    order = np.lexsort((np.abs(resid), ev.direction))
+    return order[starts]
+
+
+def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
+    """Yaw and focal length of the hypothesis whose matches most exceed chance, and its number
+    of matched audio directions (camera at the array's centre).
+
+    A direction matches when a box of its frame is predicted within :data:`MATCH_DEG`. Its
+    chance of matching is the share of all the recording's audio directions within
+    :data:`MATCH_DEG` of the frame's predicted boxes: without it, a camera of a tiny field of
+    view that puts every box on the direction heard most would win."""
+    starts = _starts(ev.direction)
+    first = ev.azimuth_deg[starts]
+    # share of the audio directions within MATCH_DEG of each whole degree
+    hist = np.bincount(np.floor(first + 180.0).astype(np.int64) % 360, minlength=360)
+    win = round(MATCH_DEG)
+    near = sum(np.roll(hist, k) for k in range(-win, win + 1)) / max(first.shape[0], 1)
+    yaws = np.arange(-180.0, 180.0, 1.0)
+    best = (0.0, 1.0, -1)
+    best_score = -np.inf
+    for hfov in np.arange(20.0, 151.0, 5.0):
+        f = 0.5 * ev.width / math.tan(math.radians(hfov) / 2.0)
+        g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
+        off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
+        hit = np.abs(wrap_azimuth(off[:, None] - yaws[None, :])) < MATCH_DEG
+        hits = np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0)
+        cell = np.floor(g[:, None] + yaws[None, :] + 180.0).astype(np.int64) % 360
+        chance = np.minimum(np.add.reduceat(near[cell], starts, axis=0), 1.0).sum(axis=0)
+        score = hits - chance
+        j = int(np.argmax(score))
+        if score[j] > best_score:
+            best_score = float(score[j])
+            best = (float(yaws[j]), f, int(hits[j]))
+    return best
+
+
+@dataclass(frozen=True)
+class CameraFit:
+    """A camera estimated from a recording (:func:`fit_camera`).
+
+    Attributes
+    ----------
+    camera : PinholeCamera
+        The estimate, in the array's frame (``fx = fy``, principal point at the image centre).
+    yaw_std_deg, pitch_std_deg, focal_std_px : float
+        Standard deviations (block bootstrap); ``pitch_std_deg`` NaN when the pitch was held.
+    pitch_fitted : bool
+        Whether the pitch was estimated (audio elevations) or held.
+    n_directions : int
+        Audio directions in frames with at least one box.
+    n_inliers : int
+        Audio directions explained by a box.
+    residual_deg : float
+        RMS azimuth residual of the inliers, degrees.
+    """
+
+    camera: PinholeCamera
+    yaw_std_deg: float
+    pitch_std_deg: float
+    focal_std_px: float
+    pitch_fitted: bool
+    n_directions: int
+    n_inliers: int
+    residual_deg: float
+
+    def summary(self) -> str:
+        """One paragraph: the estimate with its uncertainty and the evidence."""
+        c = self.camera
+        pitch = (f"pitch {c.pitch_deg:.1f} deg (+-{self.pitch_std_deg:.1f})" if self.pitch_fitted
+                 else f"pitch {c.pitch_deg:.1f} deg (held: the audio directions have no "
+                 f"elevation)")
+        hfov = 2.0 * math.degrees(math.atan(0.5 * c.width / c.fx))
+        return (f"camera in the array's frame: yaw {c.yaw_deg:.1f} deg "
+                f"(+-{self.yaw_std_deg:.1f}), {pitch}, focal length {c.fx:.0f} px "
+                f"(+-{self.focal_std_px:.0f}; horizontal field of view {hfov:.0f} deg), "
+                f"from {self.n_inliers} of {self.n_directions} audio directions matching a "
+                f"person in the image (RMS {self.residual_deg:.1f} deg)")
+
+
+def _residuals(x: np.ndarray, ev: CameraEvidence, idx: np.ndarray, fit_pitch: bool,
+               pitch0: float, position: np.ndarray) -> np.ndarray:
+    yaw, logf = x[0], x[1]
+    pitch = float(x[2]) if fit_pitch else pitch0
+    sub = _take(ev, idx)
+    az, el = predicted_directions(sub, yaw, pitch, math.exp(logf), position)
+    r = wrap_azimuth(sub.azimuth_deg - az)
+    if not fit_pitch:
+        return r
+    re = sub.elevation_deg - el
+    return np.concatenate([r, re[np.isfinite(re)]])
+
+
+def _take(ev: CameraEvidence, idx: np.ndarray) -> CameraEvidence:
+    return replace(ev, direction=ev.direction[idx], azimuth_deg=ev.azimuth_deg[idx],
+                   elevation_deg=ev.elevation_deg[idx], u=ev.u[idx], v=ev.v[idx], h=ev.h[idx],
+                   time_s=ev.time_s[idx])
+
+
+def _params(x: np.ndarray, fit_pitch: bool, pitch0: float) -> tuple[float, float, float]:
+    """(yaw, pitch, focal) of a parameter vector (yaw, log f[, pitch])."""
+    return (float(wrap_azimuth(x[0])), float(np.clip(x[2], -89.0, 89.0)) if fit_pitch
+            else pitch0, math.exp(float(x[1])))
+
+
+def fit_camera(
+    ev: CameraEvidence,
+    *,
+    position: np.ndarray | None = None,
+    pitch_deg: float = 0.0,
+    fit_pitch: bool | None = None,
+    min_matches: int = MIN_MATCHES,
+    n_bootstrap: int = 40,
+    seed: int = 0,
+) -> CameraFit:
+    """Estimate the camera in the array's frame (see the module docstring).
+
+    Parameters
+    ----------
+    ev : CameraEvidence
+        From :func:`camera_evidence`.
+    position : ndarray (3,), optional
+        The camera's optical centre in the array's frame, metres (default: the array's centre).
+    pitch_deg : float
+        The pitch held when it is not fitted (and the start of its fit).
+    fit_pitch : bool, optional
+        Fit the pitch (default: when the audio directions carry elevations).
+    min_matches : int
+        Fewest audio directions matching a box for an estimate.
+    n_bootstrap : int
+        Bootstrap replicas for the uncertainty.
+    seed : int
+        Seed of the bootstrap.
+
+    Raises
+    ------
+    ValueError
+        When there is too little evidence: too few audio directions coincide with a person in
+        the image, or those that do are too close together in the image to measure the focal
+        length.
+    """
+    pos = np.zeros(3) if position is None else np.asarray(position, dtype=float).reshape(3)
+    if fit_pitch is None:
+        fit_pitch = ev.has_elevation
+    if ev.n_pairs == 0:
+        raise ValueError(_too_little(0, ev.n_directions, min_matches))
+    yaw0, f0, score = _search(ev, pitch_deg)
+    if score < min_matches:
+        raise ValueError(_too_little(score, ev.n_directions, min_matches))
+    x = np.array([yaw0, math.log(f0)] + ([pitch_deg] if fit_pitch else []))
+    f_lo, f_hi = (0.5 * ev.width / math.tan(math.radians(a)) for a in (85.0, 5.0))  # 170-10°
+    lo = [-np.inf, math.log(f_lo)] + ([-89.0] if fit_pitch else [])
+    hi = [np.inf, math.log(f_hi)] + ([89.0] if fit_pitch else [])
+    idx = np.zeros(0, dtype=np.int64)
+    for _ in range(4):  # associate, fit robustly, re-associate
+        yaw, pitch, f = _params(x, fit_pitch, pitch_deg)
+        az, _ = predicted_directions(ev, yaw, pitch, f, pos)
+        resid = wrap_azimuth(ev.azimuth_deg - az)
+        new = _nearest(ev, resid)
+        new = new[np.abs(resid[new]) < 4.0 * MATCH_DEG]
+        if new.shape[0] < min_matches:
+            raise ValueError(_too_little(int(new.shape[0]), ev.n_directions, min_matches))
+        if np.array_equal(new, idx):
+            break
+        idx = new
+        sol = least_squares(_residuals, x, bounds=(lo, hi), loss="cauchy",
+                            f_scale=MATCH_DEG / 2.0, args=(ev, idx, fit_pitch, pitch_deg, pos))
+        x = sol.x
+    # inliers: within 3 robust standard deviations (1.4826 MAD), refitted plainly
+    r = _residuals(x, ev, idx, False, _params(x, fit_pitch, pitch_deg)[1], pos)
+    scale = 1.4826 * float(np.median(np.abs(r)))
+    inl = idx[np.abs(r) <= float(np.clip(3.0 * scale, 1.0, 2.5 * MATCH_DEG))]
+    if inl.shape[0] < min_matches:
+        raise ValueError(_too_little(int(inl.shape[0]), ev.n_directions, min_matches))
+    spread = float(np.ptp(ev.u[inl]))
+    if spread < 0.1 * ev.width:
+        raise ValueError(
+            f"too little evidence: the {inl.shape[0]} audio directions that match a person in "
+            f"the image all lie within {spread:.0f} px of each other across the image (need "
+            f"{0.1 * ev.width:.0f} px, a tenth of its width, to measure the focal length): "
+            f"the people seen talking stand in one place of the image")
+    args = (ev, inl, fit_pitch, pitch_deg, pos)
+    x = least_squares(_residuals, x, bounds=(lo, hi), args=args).x
+    r = _residuals(x, *args)[: inl.shape[0]]
+    # block bootstrap of the inliers
+    rng = np.random.default_rng(seed)
+    block = np.floor(ev.time_s[inl] / BLOCK_S).astype(np.int64)
+    blocks = [np.flatnonzero(block == b) for b in np.unique(block)]
+    reps = []
+    for _ in range(n_bootstrap):
+        pick = rng.integers(0, len(blocks), len(blocks))
+        sub = inl[np.concatenate([blocks[j] for j in pick])]
+        sol = least_squares(_residuals, x, bounds=(lo, hi),
+                            args=(ev, sub, fit_pitch, pitch_deg, pos))
+        y = sol.x.copy()
+        y[0] = x[0] + float(wrap_azimuth(y[0] - x[0]))
+        reps.append(y)
+    rep = np.asarray(reps).reshape(-1, x.shape[0])
+    std = rep.std(axis=0, ddof=1) if rep.shape[0] > 1 else np.full(x.shape[0], np.nan)
+    yaw, pitch, f = _params(x, fit_pitch, pitch_deg)
+    camera = PinholeCamera(f, f, 0.5 * ev.width, 0.5 * ev.height, ev.width, ev.height, pos,
+                           yaw, pitch)
+    f_std = float(np.std(np.exp(rep[:, 1]), ddof=1)) if rep.shape[0] > 1 else float("nan")
+    return CameraFit(
+        camera, float(std[0]), float(std[2]) if fit_pitch else float("nan"), f_std,
+        fit_pitch, ev.n_directions, int(inl.shape[0]), float(np.sqrt(np.mean(r**2))),
+    )
+
+
+def _too_little(n: int, total: int, need: int) -> str:
+    return (f"too little evidence to estimate the camera: {n} of {total} audio directions "
+            f"match a person in the image (need {need}); it needs people talking while the "
+            f"camera sees them")
+
+
+def matched_fraction(ev: CameraEvidence, camera: PinholeCamera, tol_deg: float) -> float:
+    """Fraction of the audio directions within ``tol_deg`` of a box under ``camera``
+    (its yaw, pitch, ``fx``, position; principal point and size those of ``ev``)."""
+    if ev.n_directions == 0:
+        return 0.0
+    az, _ = predicted_directions(ev, camera.yaw_deg, camera.pitch_deg, camera.fx,
+                                 np.asarray(camera.position))
+    resid = np.abs(wrap_azimuth(ev.azimuth_deg - az))
+    best = np.minimum.reduceat(resid, _starts(ev.direction)) if ev.n_pairs else np.zeros(0)
+    return float(np.sum(best <= tol_deg)) / ev.n_directions
+
+
+@dataclass(frozen=True)
+class CameraCheck:
+    """A given camera against the recording (:func:`check_camera`).
+
+    Attributes
+    ----------
+    fit : CameraFit or None
+        The estimate the camera was compared with (None: too little evidence, see ``notes``).
+    warnings : tuple of str
+        Each likely mistake, with its evidence; empty when the camera agrees.
+    notes : tuple of str
+        What could not be checked.
+    """
+
+    fit: CameraFit | None
+    warnings: tuple[str, ...]
+    notes: tuple[str, ...] = ()
+
+
+#: Camera positions farther than this from the array (metres) are read as millimetres.
+MM_DISTANCE = 20.0
+
+#: A camera farther than this from the array (metres) is suspected to be in the room's frame
+#: when the evidence fits better with it at the array.
+ROOM_DISTANCE = 1.0
+
+
+def _try_fit(ev: CameraEvidence, **kw) -> CameraFit | None:
+    try:
+        return fit_camera(ev, **kw)
+    except ValueError:
+        return None
+
+
+def check_camera(
+    camera: PinholeCamera, ev: CameraEvidence, *, name: str = "CAMERA.yaml", **fit_kw
+) -> CameraCheck:
+    """Compare a camera given in the array's frame with the recording's evidence.
+
+    The recording is fitted (:func:`fit_camera`, with the given camera's position and, when
+    the audio has no elevations, its pitch) and, to name the mistake, refitted under the usual
+    ones: positions in millimetres (the position divided by 1000), a camera in the room's
+    frame (the camera put at the array's centre), swapped microphone channels (every audio
+    azimuth mirrored). A difference of yaw, pitch or focal length beyond three standard
+    deviations of the fit (and 3 degrees, 10 %) is a warning.
+
+    Parameters
+    ----------
+    camera : PinholeCamera
+        The given camera.
+    ev : CameraEvidence
+    name : str
+        How the messages call the camera file.
+    **fit_kw
+        Passed on to :func:`fit_camera`.
+    """
+    warnings: list[str] = []
+    pos = np.asarray(camera.position, dtype=float)
+    dist = float(np.linalg.norm(pos))
+    if dist > MM_DISTANCE:
+        warnings.append(
+            f"{name} puts the camera {dist:.0f} m from the array (position "
+            f"{_vec(pos)}): are the positions in millimetres rather than metres? (at "
+            f"{_vec(pos / 1000.0)} m the audio directions "
+            + _match_note(ev, replace(camera, position=pos / 1000.0), camera) + ")")
+        pos = pos / 1000.0
+        dist /= 1000.0
+    kw = {"pitch_deg": camera.pitch_deg, **fit_kw}
+    fit = _try_fit(ev, position=pos, **kw)
+    if dist > ROOM_DISTANCE:
+        at_array = _try_fit(ev, position=np.zeros(3), **kw)
+        if at_array is not None and (fit is None or at_array.n_inliers > 1.2 * fit.n_inliers):
+            n_here = 0 if fit is None else fit.n_inliers
+            warnings.append(
+                f"{name} puts the camera {dist:.1f} m from the array, but the audio "
+                f"directions of the people seen fit a camera at the array ({at_array.n_inliers}"
+                f" of {ev.n_directions} match, against {n_here} at {_vec(pos)}): is the camera "
+                f"in the room's frame rather than the array's?")
+            fit = at_array
+    mirror = _try_fit(ev.mirrored(), position=pos, **kw)
+    if mirror is not None:
+        # support of each at the tolerance of the tighter fit
+        tol = float(np.clip(2.5 * min(mirror.residual_deg, np.inf if fit is None
+                                      else fit.residual_deg), 1.5, MATCH_DEG))
+        m_mirror = matched_fraction(ev.mirrored(), mirror.camera, tol)
+        m_direct = 0.0 if fit is None else matched_fraction(ev, fit.camera, tol)
+        if m_mirror > 1.25 * m_direct:
+            warnings.append(
+                f"the audio directions of the people seen match the image only mirrored "
+                f"({100 * m_mirror:.0f} % of {ev.n_directions} audio directions within "
+                f"{tol:.1f} deg of a person mirrored, {100 * m_direct:.0f} % as recorded): "
+                f"are microphone channels swapped (channel k not microphone k of the array), "
+                f"or the array file mirrored?")
+            return CameraCheck(mirror, tuple(warnings))
+    if fit is None:
+        try:
+            fit = fit_camera(ev, position=pos, **kw)
+        except ValueError as exc:
+            return CameraCheck(None, tuple(warnings), (f"{name} not checked: {exc}",))
+    est = fit.camera
+    dyaw = float(wrap_azimuth(camera.yaw_deg - est.yaw_deg))
+    tol = max(3.0 * fit.yaw_std_deg, 3.0)
+    if abs(dyaw) > tol and not any("room's frame" in w for w in warnings):
+        hint = ("is the camera in the room's frame rather than the array's, or are the "
+                "microphone channels rotated (channel k not microphone k of the array)?"
+                if dist > ROOM_DISTANCE or abs(camera.pitch_deg) > 30.0 else
+                f"are the microphone channels rotated (channel k not microphone k of the "
+                f"array), or is the camera in the room's frame rather than the array's? "
+                f"(yaw_deg {est.yaw_deg:.1f} would fit)")
+        warnings.append(
+            f"audio directions of the people seen are {abs(dyaw):.0f} deg "
+            f"(+-{fit.yaw_std_deg:.1f}) from where {name} puts them ({name} yaw_deg "
+            f"{camera.yaw_deg:.1f}, the recording {est.yaw_deg:.1f}; {fit.n_inliers} audio "
+            f"directions): {hint}")
+    ratio = camera.fx / est.fx
+    if abs(ratio - 1.0) > max(3.0 * fit.focal_std_px / est.fx, 0.1):
+        warnings.append(
+            f"{name} gives the focal length {camera.fx:.0f} px, the recording "
+            f"{est.fx:.0f} px (+-{fit.focal_std_px:.0f}): is fx for another image size "
+            f"(the video is {ev.width}x{ev.height}) or another lens zoom?")
+    if fit.pitch_fitted:
+        dp = camera.pitch_deg - est.pitch_deg
+        if abs(dp) > max(3.0 * fit.pitch_std_deg, 3.0):
+            warnings.append(
+                f"{name} tilts the camera to pitch {camera.pitch_deg:.1f} deg, the audio "
+                f"elevations of the people seen to {est.pitch_deg:.1f} deg "
+                f"(+-{fit.pitch_std_deg:.1f}): is pitch_deg's sign or the array's up axis "
+                f"wrong?")
+    return CameraCheck(fit, tuple(warnings))
+
+
+def _vec(p: np.ndarray) -> str:
+    return "[" + ", ".join(f"{v:.3g}" for v in p) + "]"
+
+
+def _match_note(ev: CameraEvidence, fixed: PinholeCamera, given: PinholeCamera) -> str:
+    a = matched_fraction(ev, fixed, MATCH_DEG)
+    b = matched_fraction(ev, given, MATCH_DEG)
+    return f"match the people seen {100 * a:.0f} % of the time, at the file's {100 * b:.0f} %"

@@ -1,0 +1,122 @@
+"""Camera self-calibration from audio directions and head boxes (``avtrack.av.calibrate``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from avtrack.av.calibrate import (
+    camera_evidence,
+    check_camera,
+    fit_camera,
+)
+from avtrack.io.camera import PinholeCamera
+from avtrack.io.mot import MOTData
+
+FPS = 25.0
+
+
+def _true_camera(yaw=20.0, pitch=0.0, hfov=60.0, position=(0.0, 0.0, 0.05)):
+    return PinholeCamera.from_fov(hfov, 640, 480, np.asarray(position), yaw, pitch)
+
+
+def _recording(camera, n_frames=400, outliers=0.0, seed=0, elevation=False, noise=1.0):
+    """Three people in front of the camera taking turns (one talker a frame), in the array's
+    frame; a fraction ``outliers`` of the frames hears a random direction instead."""
+    rng = np.random.default_rng(seed)
+    yaw = camera.yaw_deg
+    az = yaw + np.array([-24.0, -8.0, 19.0])
+    dist = np.array([1.8, 2.4, 2.0])
+    height = np.array([0.1, 0.45, -0.05])  # head heights relative to the array
+    frames, ids, boxes, azs, els = [], [], [], [], []
+    for t in range(n_frames):
+        # people sway a little, the talker changes every 40 frames
+        a = az + 6.0 * np.sin(0.02 * t + np.arange(3))
+        pts = np.column_stack([dist * np.cos(np.deg2rad(a)), dist * np.sin(np.deg2rad(a)),
+                               height])
+        b = camera.head_box(pts)
+        for i in range(3):
+            if np.all(np.isfinite(b[i])):
+                frames.append(t + 1)
+                ids.append(i + 1)
+                boxes.append(b[i])
+        talker = (t // 40) % 3
+        p = pts[talker]
+        if rng.random() < outliers:
+            azs.append(np.array([rng.uniform(-180, 180)]))
+            els.append(np.array([rng.uniform(-20, 40)]))
+        else:
+            azs.append(np.array([np.degrees(np.arctan2(p[1], p[0])) + rng.normal(0, noise)]))
+            els.append(np.array([np.degrees(np.arctan2(p[2], np.hypot(p[0], p[1])))
+                                 + rng.normal(0, noise)]))
+    dets = MOTData(np.array(frames), np.array(ids), np.array(boxes), np.ones(len(frames)))
+    return camera_evidence(dets, azs, FPS, (640, 480), els if elevation else None)
+
+
+@pytest.mark.parametrize("yaw", [0.0, 20.0, -135.0])
+def test_fit_recovers_a_known_camera(yaw):
+    cam = _true_camera(yaw=yaw, hfov=60.0)
+    fit = fit_camera(_recording(cam), position=cam.position)
+    assert abs(fit.camera.yaw_deg - yaw) < 1.0
+    assert abs(fit.camera.fx / cam.fx - 1.0) < 0.05
+    assert fit.camera.pitch_deg == 0.0 and not fit.pitch_fitted
+    assert 0 < fit.yaw_std_deg < 1.0 and 0 < fit.focal_std_px < 0.05 * cam.fx
+    assert "yaw" in fit.summary()
+
+
+def test_fit_measures_the_pitch_from_audio_elevations():
+    cam = _true_camera(yaw=10.0, pitch=8.0, hfov=70.0)
+    fit = fit_camera(_recording(cam, elevation=True), position=cam.position)
+    assert fit.pitch_fitted
+    assert abs(fit.camera.pitch_deg - 8.0) < 1.5
+    assert abs(fit.camera.yaw_deg - 10.0) < 1.0
+
+
+def test_fit_is_robust_to_30_percent_outliers():
+    cam = _true_camera(yaw=-40.0, hfov=75.0)
+    fit = fit_camera(_recording(cam, outliers=0.3, seed=1), position=cam.position)
+    assert abs(fit.camera.yaw_deg + 40.0) < 1.0
+    assert abs(fit.camera.fx / cam.fx - 1.0) < 0.05
+    assert fit.n_inliers < 0.8 * fit.n_directions
+
+
+def test_too_little_evidence_is_a_clear_error():
+    cam = _true_camera()
+    ev = _recording(cam, n_frames=15)
+    with pytest.raises(ValueError, match=r"too little evidence.*talking while the camera"):
+        fit_camera(ev)
+
+
+def test_check_is_silent_for_the_right_camera():
+    cam = _true_camera(yaw=15.0)
+    chk = check_camera(cam, _recording(cam))
+    assert chk.warnings == ()
+
+
+def test_check_names_a_room_frame_camera():
+    cam = _true_camera(yaw=15.0)
+    room = PinholeCamera(cam.fx, cam.fy, cam.cx, cam.cy, 640, 480,
+                         np.array([3.0, 0.8, 1.35]), 105.0, 0.0)
+    chk = check_camera(room, _recording(cam))
+    assert any("room's frame" in w for w in chk.warnings), chk.warnings
+
+
+def test_check_names_mirrored_channels():
+    cam = _true_camera(yaw=15.0)
+    chk = check_camera(cam, _recording(cam).mirrored())
+    assert any("mirrored" in w and "swapped" in w for w in chk.warnings), chk.warnings
+
+
+def test_check_names_rotated_channels():
+    cam = _true_camera(yaw=15.0)
+    chk = check_camera(cam, _recording(cam).rotated(90.0))
+    assert len(chk.warnings) == 1
+    assert "90 deg" in chk.warnings[0] and "rotated" in chk.warnings[0]
+
+
+def test_check_names_millimetres():
+    cam = _true_camera(yaw=15.0, position=(0.0, 120.0, 50.0))
+    ev = _recording(_true_camera(yaw=15.0, position=(0.0, 0.12, 0.05)))
+    chk = check_camera(cam, ev)
+    assert any("millimetres" in w for w in chk.warnings), chk.warnings
+    assert len(chk.warnings) == 1
