@@ -466,6 +466,8 @@ class CameraCheck:
 
 #: Camera positions farther than this from the array (metres) are read as millimetres.
 MM_DISTANCE = 20.0
+#: A focal length differing from the recording's fit by more than this fraction is named.
+FOCAL_TOLERANCE = 0.3
 
 #: A camera farther than this from the array (metres) is suspected to be in the room's frame
 #: when the evidence fits better with it at the array.
@@ -489,7 +491,7 @@ def check_camera(
     ones: positions in millimetres (the position divided by 1000), a camera in the room's
     frame (the camera put at the array's centre), swapped microphone channels (every audio
     azimuth mirrored). A difference of yaw, pitch or focal length beyond three standard
-    deviations of the fit (and 3 degrees, 10 %) is a warning.
+    deviations of the fit (and 3 degrees, :data:`FOCAL_TOLERANCE`) is a warning.
 
     Parameters
     ----------
@@ -560,7 +562,10 @@ def check_camera(
             f"{camera.yaw_deg:.1f}, the recording {est.yaw_deg:.1f}; {fit.n_inliers} audio "
             f"directions): {hint}")
     ratio = camera.fx / est.fx
-    if abs(ratio - 1.0) > max(3.0 * fit.focal_std_px / est.fx, 0.1):
+    # localizer peaks on a grid compress the audio directions of people near the image centre,
+    # which biases the fitted focal length by up to about 20 % on simulated scenes, so only a
+    # larger difference (fx for another image size, another zoom) is named
+    if abs(ratio - 1.0) > max(3.0 * fit.focal_std_px / est.fx, FOCAL_TOLERANCE):
         warnings.append(
             f"{name} gives the focal length {camera.fx:.0f} px, the recording "
             f"{est.fx:.0f} px (+-{fit.focal_std_px:.0f}): is fx for another image size "
