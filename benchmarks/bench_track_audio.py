@@ -299,12 +299,12 @@ def accuracy(args) -> list[str]:
             d = scene_dir(args.workdir, kind, seed, args.duration)
             scenes.append((d, read_doa_csv(d / "gt" / "doa.csv")))
         rows: list[Row] = []
-        for m in METHODS:
+        for m in args.methods:
             if m not in LOCALIZERS:
                 continue
             rows.append(frame_wise(scenes, m, args.skip)[1])
             print(f"  {kind} {m}: done", file=sys.stderr, flush=True)
-        for method in TRACKER_MAPS:
+        for method in args.maps:
             for label, name in TRACKERS:
                 label = f"{label} ({LABELS[method]} maps)"
                 rows.append(tracked(scenes, name, args.skip, label=label, method=method))
@@ -459,6 +459,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-accuracy", action="store_true")
     p.add_argument("--no-roc", action="store_true", help="skip the trackers' δ sweeps")
     p.add_argument("--markdown", type=Path, help="also write the tables to this file")
+    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS,
+                   help="frame-wise methods to score (default: all)")
+    p.add_argument("--maps", nargs="+", default=list(TRACKER_MAPS), choices=TRACKER_MAPS,
+                   help="heat maps the trackers run on (default: both)")
     args = p.parse_args(argv)
     tmp = None
     if args.workdir is None:
