@@ -306,6 +306,8 @@ def accuracy(args) -> list[str]:
             print(f"  {kind} {m}: done", file=sys.stderr, flush=True)
         for method in args.maps:
             for label, name in TRACKERS:
+                if name not in args.trackers:
+                    continue
                 label = f"{label} ({LABELS[method]} maps)"
                 rows.append(tracked(scenes, name, args.skip, label=label, method=method))
                 if name != "gmphd" and not args.no_roc:
@@ -463,6 +465,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="frame-wise methods to score (default: all)")
     p.add_argument("--maps", nargs="+", default=list(TRACKER_MAPS), choices=TRACKER_MAPS,
                    help="heat maps the trackers run on (default: both)")
+    p.add_argument("--trackers", nargs="+", default=[n for _, n in TRACKERS],
+                   choices=[n for _, n in TRACKERS], help="trackers to score (default: all)")
     args = p.parse_args(argv)
     tmp = None
     if args.workdir is None:

@@ -388,6 +388,10 @@ class EGConfig:
         2005). A talker who moves keeps the layer of its velocity; a talker who stands keeps
         the zero layer, whose peaks a small random walk leaves sharp, so that talkers close to
         each other stay apart. Not in the thesis.
+    still_smoothing : float or None
+        With velocity layers: the random walk of the zero-velocity layer (None: the same
+        ``position_smoothing`` as the moving layers). A standing talker needs no walk to be
+        followed, and a smaller one keeps its peak on the talker.
     velocity_switch : float
         Share of each layer's mass handed to the other layers every frame (equally), the
         chance of a change of velocity.
@@ -422,6 +426,7 @@ class EGConfig:
     position_smoothing: float = 0.4
     position_share: float = 0.01
     position_velocities_deg_s: tuple[float, ...] | None = None
+    still_smoothing: float | None = None
     velocity_switch: float = 0.01
     presence_reach: int = 3
     presence_by_peak: bool = False
@@ -453,6 +458,11 @@ class EGConfig:
                     f"numbers, got {self.position_velocities_deg_s!r}"
                 )
             object.__setattr__(self, "position_velocities_deg_s", tuple(float(x) for x in vel))
+        if self.still_smoothing is not None:
+            _positive("EGConfig", "still_smoothing", self.still_smoothing, allow_zero=True)
+            if self.still_smoothing > 1:
+                raise ValueError(
+                    f"EGConfig: still_smoothing must be <= 1, got {self.still_smoothing!r}")
         for name in ("silence_rate", "smoothing", "share", "position_smoothing", "position_share",
                      "velocity_switch"):
             _positive("EGConfig", name, getattr(self, name), allow_zero=True)
@@ -558,6 +568,11 @@ class DPRTFEG(CGMMLocalizer):
         self._heat = self.weights.copy()
         self._drift_cells = self._drift_per_frame()
         u_ = self._drift_cells.size
+        #: random walk of each layer (U, 1): the still layer's may be its own
+        walk = np.full(u_, self.config.position_smoothing)
+        if self.config.still_smoothing is not None:
+            walk[self._drift_cells == 0] = self.config.still_smoothing
+        self._walk = walk[:, None]
         #: position weights per velocity layer v_{u,t} (U, D)
         self.position_layers = np.full((u_, self.grid.size), 1.0 / (u_ * self.grid.size))
         self.position = self.weights.copy()  #: position weights v_t (D,)
@@ -602,8 +617,8 @@ class DPRTFEG(CGMMLocalizer):
         # row, all rows at once)
         layers = drift(layers, self.grid, self._drift_cells)
         prev, nxt, has_prev, has_next = self.grid.azimuth_neighbours
-        coef = cfg.position_smoothing
-        if coef:
+        coef = self._walk
+        if np.any(coef):
             walked = layers + coef * (layers[:, prev] * has_prev + layers[:, nxt] * has_next)
             scale = layers.sum(axis=1) / np.maximum(walked.sum(axis=1), _TINY)
             layers = walked * scale[:, None]
