@@ -543,7 +543,8 @@ def run_recording(args: argparse.Namespace) -> int:
         else:
             from avtrack.localize import make_localizer
 
-            assert audio is not None  # (read above: no --doa needs --audio without --no-audio)
+            if audio is None:  # (read above: no --doa needs --audio without --no-audio)
+                raise InputError("give --audio (with --array) or --doa DOA.csv")
             grid = localizer_grid(array)
             loc = make_localizer(PERSONS_LOCALIZER, array, grid)
             with progress.activity(f"localizing {audio.shape[1] / 16000:.1f} s", args.quiet):

@@ -388,7 +388,8 @@ class VEMEngine:
     def _cv_diagonal(self, lam: np.ndarray) -> CVNoise:
         r"""A diagonal ``lam (N, d)`` as :class:`CVNoise` (``cov`` None:
         :math:`\Lambda_{pv} = 0`) with no control term."""
-        assert self._cv is not None  # (only called on the constant-velocity path)
+        if self._cv is None:
+            raise RuntimeError("_cv_diagonal: the engine has no constant-velocity states")
         n_vel, k, _ = self._cv
         lam_v = np.zeros((lam.shape[0], k))
         lam_v[:, :n_vel] = lam[:, k:]
@@ -401,7 +402,8 @@ class VEMEngine:
     ) -> FrameInference:
         """:meth:`step` for constant-velocity states, in the closed forms of ``predict_cv`` and
         ``e_s_step_cv``; ``lam`` holds Λ in the covariance fields."""
-        assert self._cv is not None  # (only called on the constant-velocity path)
+        if self._cv is None:
+            raise RuntimeError("_step_cv: the engine has no constant-velocity states")
         n_vel, k, dt = self._cv
         n = self.n_targets
         if control is not None:  # the control term c_tn of eq. 3.34 joins Λ in the prediction
