@@ -94,6 +94,26 @@ def meeting(seed: int, duration: float) -> dict:
     }
 
 
+def _track_motion(
+    track: str,
+    column: int,
+    rng: np.random.Generator,
+    radius: tuple[float, float],
+    height: tuple[float, float],
+    start: float,
+) -> dict:
+    """An ``azimuth-track`` motion following column ``column`` of a recorded track from
+    ``start`` seconds, at a radius and height drawn uniformly in the given ranges (metres)."""
+    return {
+        "type": "azimuth-track",
+        "track": track,
+        "column": column,
+        "radius": round(float(rng.uniform(*radius)), 3),
+        "height": round(float(rng.uniform(*height)), 3),
+        "start_s": round(start, 3),
+    }
+
+
 def locata_like(seed: int, duration: float) -> dict:
     rng = np.random.default_rng([seed, 2])
     dims = [7.1, 9.8, 3.0]
@@ -102,14 +122,7 @@ def locata_like(seed: int, duration: float) -> dict:
     people = [
         {
             "id": col + 1,
-            "motion": {
-                "type": "azimuth-track",
-                "track": "locata",
-                "column": col,
-                "radius": round(float(rng.uniform(1.3, 2.2)), 3),
-                "height": round(float(rng.uniform(0.1, 0.3)), 3),
-                "start_s": round(start, 3),
-            },
+            "motion": _track_motion("locata", col, rng, (1.3, 2.2), (0.1, 0.3), start),
         }
         for col in (0, 1)
     ]
@@ -135,14 +148,7 @@ def kinovis_like(seed: int, duration: float) -> dict:
     people = []
     for pid in (1, 2, 3):
         if pid < 3:
-            motion = {
-                "type": "azimuth-track",
-                "track": "kinovis",
-                "column": pid - 1,
-                "radius": round(float(rng.uniform(1.5, 2.5)), 3),
-                "height": round(float(rng.uniform(0.05, 0.3)), 3),
-                "start_s": round(start, 3),
-            }
+            motion = _track_motion("kinovis", pid - 1, rng, (1.5, 2.5), (0.05, 0.3), start)
         else:
             motion = {
                 "type": "random-walk",
