@@ -32,26 +32,14 @@ from avtrack.io.doa import DOATable, wrap_azimuth
 from avtrack.metrics.doa_tracking import evaluate_tracks
 from avtrack.simulate.heatmaps import synthetic_heatmaps
 from avtrack.vem.engine import VEMEngine
+from tests.doa.synthetic import GRID, heatmaps_and_truth
 
-GRID = -180.0 + 5.0 * np.arange(1, 73)  # thesis §5.5.1: 72 azimuths every 5°
 OBS = DEFAULT_OBSERVATIONS["gauss"]  # how the tracker observes a heat map by default
 
 
 def scene(az: np.ndarray, on: np.ndarray, seed: int = 0, observations: str = OBS, **kw):
     """Heat maps of sources ``az (T, K)`` and the matching ground truth (32 ms frames)."""
-    rng = np.random.default_rng(seed)
-    t_, k = az.shape
-    w = synthetic_heatmaps(az, on, GRID, rng, **kw)
-    t = np.arange(t_) * FRAME_PERIOD_S
-    truth = DOATable(
-        np.repeat(np.arange(t_), k),
-        np.repeat(t, k),
-        np.tile(np.arange(1, k + 1), t_),
-        wrap_azimuth(az.ravel()),
-        np.zeros(az.size),
-        np.ones(az.size),
-        on.ravel(),
-    )
+    w, t, truth = heatmaps_and_truth(az, on, seed, **kw)
     return heatmap_sequence(w, GRID, time_s=t, step=1, observations=observations), truth
 
 

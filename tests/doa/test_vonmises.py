@@ -31,11 +31,9 @@ from avtrack.doa.vonmises import (
     log_i0,
     predicted_concentration,
 )
-from avtrack.io.doa import DOATable, wrap_azimuth
+from avtrack.io.doa import wrap_azimuth
 from avtrack.metrics.doa_tracking import evaluate_tracks
-from avtrack.simulate.heatmaps import synthetic_heatmaps
-
-GRID = -180.0 + 5.0 * np.arange(1, 73)
+from tests.doa.synthetic import GRID, heatmaps_and_truth
 
 
 def vm_pdf(x, mu, kappa):
@@ -44,19 +42,7 @@ def vm_pdf(x, mu, kappa):
 
 def scene(az: np.ndarray, on: np.ndarray, seed: int = 0):
     """Peak observations (thesis §5.6.5) of sources ``az (T, K)`` and their ground truth."""
-    rng = np.random.default_rng(seed)
-    t_, k = az.shape
-    w = synthetic_heatmaps(az, on, GRID, rng)
-    t = np.arange(t_) * FRAME_PERIOD_S
-    truth = DOATable(
-        np.repeat(np.arange(t_), k),
-        np.repeat(t, k),
-        np.tile(np.arange(1, k + 1), t_),
-        wrap_azimuth(az.ravel()),
-        np.zeros(az.size),
-        np.ones(az.size),
-        on.ravel(),
-    )
+    w, t, truth = heatmaps_and_truth(az, on, seed)
     return DOASequence.from_weights(w, GRID, time_s=t, peaks_only=True, floor=0.05), truth
 
 
