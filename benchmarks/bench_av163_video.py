@@ -43,6 +43,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import SHARED_DATA  # noqa: E402
 from avtrack.av.av163 import av163_detector  # noqa: E402
 from avtrack.io.av163 import load_av163  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
@@ -55,7 +56,6 @@ from avtrack.phd.likelihood import (  # noqa: E402
     av163_truth,
 )
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
 VIDEO = "seq30-2p-1101_cam1_divx_audio.avi"
 FACE_BOX = (18.0, 25.0)  # face box (w, h) the VEM row draws around a point
 
@@ -142,7 +142,7 @@ def persons_scores(folder: Path, seq, detector: str) -> tuple[float, float, int,
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, default=REPO_ROOT / ".." / "shared" / "data" / "av16.3")
+    ap.add_argument("--data", type=Path, default=SHARED_DATA / "av16.3")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--detector", choices=("heads", "templates"), default="heads",
                     help="visual detector on the frames: foreground head tops (default) or "
