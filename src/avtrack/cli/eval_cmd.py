@@ -18,7 +18,7 @@ from typing import Any
 from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write
+from avtrack.io.base import atomic_write, read_audio_file
 from avtrack.io.mot import read_mot
 from avtrack.metrics.mot import BENCHMARKS, TABLE_COLUMNS, evaluate_mot, format_table
 
@@ -464,14 +464,8 @@ def run_persons(args: argparse.Namespace) -> int:
 
 def _read_mono(path: Path, fs: int | None = None):
     import numpy as np
-    import soundfile as sf
 
-    if not path.is_file():
-        raise InputError("file not found", path)
-    try:
-        x, rate = sf.read(path, always_2d=True)
-    except (RuntimeError, sf.LibsndfileError) as exc:
-        raise InputError(f"cannot read audio: {exc}", path) from None
+    x, rate = read_audio_file(path)
     if x.shape[1] != 1:
         raise InputError(f"expected one channel, got {x.shape[1]}", path)
     if fs is not None and rate != fs:
