@@ -114,6 +114,21 @@ def _track_motion(
     }
 
 
+def _nao_in_room(
+    name: str, seed: int, duration: float, dims: list[float], t60: float, centre: list[float]
+) -> dict:
+    """The scenario fields of a NAO head (4 microphones with HRIRs, its 60.9-degree camera)
+    at ``centre`` in a room of size ``dims`` and reverberation time ``t60``."""
+    return {
+        "name": name,
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": dims, "t60": t60},
+        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
+        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+    }
+
+
 def locata_like(seed: int, duration: float) -> dict:
     rng = np.random.default_rng([seed, 2])
     dims = [7.1, 9.8, 3.0]
@@ -127,12 +142,7 @@ def locata_like(seed: int, duration: float) -> dict:
         for col in (0, 1)
     ]
     return {
-        "name": "locata-like",
-        "duration": duration,
-        "seed": seed,
-        "room": {"dims": dims, "t60": 0.55},
-        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
-        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+        **_nao_in_room("locata-like", seed, duration, dims, 0.55, centre),
         "people": people,
         "speech": {"mode": "vad"},
         "noise": {"diffuse_snr_db": 30.0, "fan_snr_db": 15.0},
@@ -170,12 +180,7 @@ def kinovis_like(seed: int, duration: float) -> dict:
         present = present or [[0.0, round(float(duration), 3)]]
         people.append({"id": pid, "motion": motion, "present": present})
     return {
-        "name": "kinovis-like",
-        "duration": duration,
-        "seed": seed,
-        "room": {"dims": dims, "t60": 0.5},
-        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
-        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+        **_nao_in_room("kinovis-like", seed, duration, dims, 0.5, centre),
         "people": people,
         "speech": {"mode": "turn-taking", "mean_turn": 2.0, "mean_pause": 0.8},
         "noise": {"diffuse_snr_db": 10.0, "fan_snr_db": 5.0},
