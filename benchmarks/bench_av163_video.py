@@ -48,6 +48,7 @@ from avtrack.av.av163 import av163_detector  # noqa: E402
 from avtrack.io.av163 import load_av163  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
 from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
+from avtrack.metrics.points import point_matches  # noqa: E402
 from avtrack.phd import PHD_FILTERS, PHDConfig  # noqa: E402
 from avtrack.phd.likelihood import (  # noqa: E402
     TEMPLATE_MOUTH_OFFSET,
@@ -75,16 +76,9 @@ def detect_video(folder: Path, seq, name: str) -> tuple[list[np.ndarray], float,
 
 
 def detector_rates(visual: list[np.ndarray], seq) -> tuple[float, float]:
-    hits = persons = near = points = 0
-    for t, pts in enumerate(visual):
-        truth = seq.positions[seq.present[t], t]
-        for y in truth:
-            persons += 1
-            hits += bool(len(pts)) and np.min(np.linalg.norm(pts - y, axis=1)) < 20
-        for p in pts:
-            points += 1
-            near += bool(len(truth)) and np.min(np.linalg.norm(truth - p, axis=1)) < 40
-    return hits / max(persons, 1), near / max(points, 1)
+    """Recall and precision of the mouth points against the ground truth."""
+    m = point_matches(visual, [seq.positions[seq.present[t], t] for t in range(len(visual))])
+    return m.recall, m.precision
 
 
 def labelled_truth(seq) -> list[np.ndarray]:
