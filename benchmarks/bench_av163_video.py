@@ -43,10 +43,12 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import SHARED_DATA  # noqa: E402
 from avtrack.av.av163 import av163_detector  # noqa: E402
 from avtrack.io.av163 import load_av163  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
 from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
+from avtrack.metrics.points import point_matches  # noqa: E402
 from avtrack.phd import PHD_FILTERS, PHDConfig  # noqa: E402
 from avtrack.phd.likelihood import (  # noqa: E402
     TEMPLATE_MOUTH_OFFSET,
@@ -55,7 +57,6 @@ from avtrack.phd.likelihood import (  # noqa: E402
     av163_truth,
 )
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
 VIDEO = "seq30-2p-1101_cam1_divx_audio.avi"
 FACE_BOX = (18.0, 25.0)  # face box (w, h) the VEM row draws around a point
 
@@ -75,16 +76,9 @@ def detect_video(folder: Path, seq, name: str) -> tuple[list[np.ndarray], float,
 
 
 def detector_rates(visual: list[np.ndarray], seq) -> tuple[float, float]:
-    hits = persons = near = points = 0
-    for t, pts in enumerate(visual):
-        truth = seq.positions[seq.present[t], t]
-        for y in truth:
-            persons += 1
-            hits += bool(len(pts)) and np.min(np.linalg.norm(pts - y, axis=1)) < 20
-        for p in pts:
-            points += 1
-            near += bool(len(truth)) and np.min(np.linalg.norm(truth - p, axis=1)) < 40
-    return hits / max(persons, 1), near / max(points, 1)
+    """Recall and precision of the mouth points against the ground truth."""
+    m = point_matches(visual, [seq.positions[seq.present[t], t] for t in range(len(visual))])
+    return m.recall, m.precision
 
 
 def labelled_truth(seq) -> list[np.ndarray]:
@@ -142,7 +136,7 @@ def persons_scores(folder: Path, seq, detector: str) -> tuple[float, float, int,
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--data", type=Path, default=REPO_ROOT / ".." / "shared" / "data" / "av16.3")
+    ap.add_argument("--data", type=Path, default=SHARED_DATA / "av16.3")
     ap.add_argument("--seeds", type=int, default=10)
     ap.add_argument("--detector", choices=("heads", "templates"), default="heads",
                     help="visual detector on the frames: foreground head tops (default) or "

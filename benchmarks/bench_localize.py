@@ -46,13 +46,13 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.signal  # noqa: E402
 
+from _common import shared_data_dir  # noqa: E402
 from avtrack.audio.arrays import MicArray, builtin_array, load_array  # noqa: E402
 from avtrack.io.base import atomic_write  # noqa: E402
 from avtrack.io.doa import read_doa_csv  # noqa: E402
 from avtrack.localize import LOCALIZERS, make_localizer, peak_table  # noqa: E402
 from avtrack.metrics.doa import DOAScores, roc_sweep  # noqa: E402
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
 FS = 16000
 METHODS = ("srp-phat", "prp-rem", "dprtf-rem", "dprtf-eg")
 LABELS = {
@@ -61,11 +61,6 @@ LABELS = {
     "dprtf-rem": "DPRTF-REM",
     "dprtf-eg": "DPRTF-EG",
 }
-
-
-def shared_data_dir() -> Path:
-    env = os.environ.get("AVTRACK_SHARED_DATA")
-    return Path(env) if env else REPO_ROOT / ".." / "shared" / "data"
 
 
 def talker_signals(seconds: float, rng: np.random.Generator) -> list[np.ndarray]:

@@ -41,11 +41,11 @@ from typing import Any
 
 import numpy as np
 
+from _common import shared_data_dir
 from avtrack.io.base import atomic_write
 from avtrack.io.mot import MOTData, read_mot
 from avtrack.metrics.mot import MOTScores, evaluate_mot
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
 SEQUENCE = "TUD-Campus"
 PEERS = {"sort": "SORTTracker", "bytetrack": "ByteTrackTracker", "ocsort": "OCSORTTracker",
          "sort-bewley": "Sort"}
@@ -57,12 +57,6 @@ LABELS = {
     "bytetrack": "ByteTrack",
     "ocsort": "OC-SORT",
 }
-
-
-def shared_data_dir() -> Path:
-    """``$AVTRACK_SHARED_DATA`` or ``<repo>/../shared/data`` (as in ``tests/conftest.py``)."""
-    env = os.environ.get("AVTRACK_SHARED_DATA")
-    return Path(env) if env else REPO_ROOT / ".." / "shared" / "data"
 
 
 @dataclass(frozen=True)

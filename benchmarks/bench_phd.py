@@ -47,6 +47,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import SHARED_DATA  # noqa: E402
 from avtrack.io.av163 import load_av163  # noqa: E402
 from avtrack.metrics.ospa import ospa_sequence, ospa_t  # noqa: E402
 from avtrack.phd import PHD_FILTERS, PHDConfig  # noqa: E402
@@ -57,7 +58,6 @@ from avtrack.phd.likelihood import (  # noqa: E402
     av163_visual,
 )
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
 PAIRS = [(24, 1), (24, 2), (24, 3), (45, 1), (45, 2), (45, 3)]
 CUTOFF = 50.0
 ORDER = 2
@@ -121,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--data",
         type=Path,
-        default=REPO_ROOT / ".." / "shared" / "data" / "av16.3",
+        default=SHARED_DATA / "av16.3",
         help="folder of the AV16.3 MAT files",
     )
     ap.add_argument("--seeds", type=int, default=10, help="seeds per sequence (default 10)")

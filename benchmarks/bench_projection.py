@@ -25,9 +25,10 @@ from collections.abc import Callable
 import numpy as np
 
 import avtrack.vem.model as models_base
+from _common import shared_data_dir  # (the script's own folder is on sys.path)
 from avtrack.io.mot import read_mot
 from avtrack.vem import updates as vem
-from bench_mot import SEQUENCE, shared_data_dir  # (the script's own folder is on sys.path)
+from bench_mot import SEQUENCE
 
 
 def record_inputs() -> list[np.ndarray]:

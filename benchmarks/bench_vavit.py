@@ -51,6 +51,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import contextlib  # noqa: E402
+import dataclasses  # noqa: E402
 import platform  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
@@ -62,7 +63,6 @@ import numpy as np  # noqa: E402
 from avtrack.av.diarization import audio_only_diarization  # noqa: E402
 from avtrack.av.features import (  # noqa: E402
     AudioFeatureConfig,
-    AudioFeatures,
     extract_audio_features,
 )
 from avtrack.av.gllim import AudioImageMapping, load_mapping, save_mapping  # noqa: E402
@@ -318,12 +318,8 @@ def run_accuracy(work: Path, config: VAVITConfig) -> dict:
             )
         }
         ref_rttm = d / "gt" / "speech.rttm"
-        muted = AudioFeatures(
-            feats.features,
-            np.zeros_like(feats.active),
-            np.zeros_like(feats.vad),
-            feats.speech_fraction,
-            feats.band_power,
+        muted = dataclasses.replace(
+            feats, active=np.zeros_like(feats.active), vad=np.zeros_like(feats.vad)
         )
         for fov_name, frac in (("FFOV", 1.0), ("PFOV", PFOV_FRACTION)):
             vis = fov_strip(sc.image_size[0], frac)

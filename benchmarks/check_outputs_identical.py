@@ -31,6 +31,9 @@ SHARED = Path(
     os.environ.get("AVTRACK_SHARED_DATA", Path(__file__).resolve().parents[1] / "../shared/data")
 )
 
+#: The simulated LOCATA-like recording and its array, as the audio commands take them.
+LOCATA = ["{w}/locata/audio.wav", "--array", "{w}/locata/array.json"]
+
 # (name, argv after "avtrack", needs shared data); "{w}" is the work directory
 STEPS: list[tuple[str, list[str], bool]] = [
     ("sim-meeting", ["simulate", "meeting", "-o", "{w}/meeting", "--seed", "0",
@@ -47,28 +50,22 @@ STEPS: list[tuple[str, list[str], bool]] = [
      False),
     ("track-mot-scene", ["track-mot", "{w}/meeting/detections.txt", "-o", "{w}/mot-meeting.txt"],
      False),
-    ("localize-dprtf-eg", ["localize", "{w}/locata/audio.wav", "--array", "{w}/locata/array.json",
-                           "--method", "dprtf-eg", "-o", "{w}/doa-dprtf-eg.csv"], False),
-    ("localize-default", ["localize", "{w}/locata/audio.wav", "--array", "{w}/locata/array.json",
-                          "-o", "{w}/doa-default.csv"], False),
-    ("localize-srp", ["localize", "{w}/locata/audio.wav", "--array", "{w}/locata/array.json",
-                      "--method", "srp-phat", "-o", "{w}/doa-srp.csv"], False),
-    ("localize-prp-rem", ["localize", "{w}/locata/audio.wav", "--array",
-                          "{w}/locata/array.json", "--method", "prp-rem",
+    ("localize-dprtf-eg", ["localize", *LOCATA, "--method", "dprtf-eg",
+                           "-o", "{w}/doa-dprtf-eg.csv"], False),
+    ("localize-default", ["localize", *LOCATA, "-o", "{w}/doa-default.csv"], False),
+    ("localize-srp", ["localize", *LOCATA, "--method", "srp-phat", "-o", "{w}/doa-srp.csv"],
+     False),
+    ("localize-prp-rem", ["localize", *LOCATA, "--method", "prp-rem",
                           "-o", "{w}/doa-prp-rem.csv"], False),
-    ("localize-dprtf-rem", ["localize", "{w}/locata/audio.wav", "--array",
-                            "{w}/locata/array.json", "--method", "dprtf-rem",
+    ("localize-dprtf-rem", ["localize", *LOCATA, "--method", "dprtf-rem",
                             "-o", "{w}/doa-dprtf-rem.csv"], False),
-    ("track-audio-vonmises", ["track-audio", "{w}/locata/audio.wav", "--array",
-                              "{w}/locata/array.json", "--tracker", "vonmises",
+    ("track-audio-vonmises", ["track-audio", *LOCATA, "--tracker", "vonmises",
                               "-o", "{w}/tracks-vonmises.csv"], False),
-    ("track-audio-gauss", ["track-audio", "{w}/locata/audio.wav", "--array",
-                           "{w}/locata/array.json", "--tracker", "gauss",
+    ("track-audio-gauss", ["track-audio", *LOCATA, "--tracker", "gauss",
                            "-o", "{w}/tracks-gauss.csv"], False),
     ("track-audio-doa", ["track-audio", "--doa", "{w}/doa-dprtf-eg.csv", "--tracker", "vonmises",
                          "-o", "{w}/tracks-doa.csv"], False),
-    ("stream", ["stream", "{w}/locata/audio.wav", "--array", "{w}/locata/array.json",
-                "-o", "{w}/stream.csv"], False),
+    ("stream", ["stream", *LOCATA, "-o", "{w}/stream.csv"], False),
     ("eval-doa", ["eval", "doa", "{w}/locata/gt/doa.csv", "{w}/doa-dprtf-eg.csv",
                   "--json", "{w}/eval-doa.json"], False),
     ("eval-mot", ["eval", "mot", "{w}/walkout/gt/gt.txt", "{w}/av-direction/tracks.txt",

@@ -30,15 +30,23 @@ def _place(az_deg: float, dist: float, height: float) -> list[float]:
     return [ARRAY[0] + dist * np.cos(ang), ARRAY[1] + dist * np.sin(ang), height]
 
 
-def walkout_scenario(seed: int = 3, duration: float = 14.0) -> dict:
-    home, away = _place(4.0, 2.2, 1.6), _place(38.0, 2.2, 1.6)
+def _small_room(name: str, seed: int, duration: float, hfov_deg: float) -> dict:
+    """The scenario fields the test scenes share: a 5 x 4 m room, the NAO array at ARRAY and a
+    640 x 480 camera of horizontal field of view ``hfov_deg``."""
     return {
-        "name": "test-walkout",
+        "name": name,
         "duration": duration,
         "seed": seed,
         "room": {"dims": [5.0, 4.0, 2.7], "t60": 0.25},
         "array": {"name": "nao4", "position": ARRAY, "yaw_deg": 90.0},
-        "camera": {"hfov_deg": 90.0, "width": 640, "height": 480},
+        "camera": {"hfov_deg": hfov_deg, "width": 640, "height": 480},
+    }
+
+
+def walkout_scenario(seed: int = 3, duration: float = 14.0) -> dict:
+    home, away = _place(4.0, 2.2, 1.6), _place(38.0, 2.2, 1.6)
+    return {
+        **_small_room("test-walkout", seed, duration, hfov_deg=90.0),
         "people": [
             {
                 "id": 1,
@@ -96,12 +104,7 @@ def out_of_image_scenario(seed: int = 5, duration: float = 16.0) -> dict:
     home, away = _place(5.0, 2.0, 1.6), _place(70.0, 2.0, 1.6)
     hidden = _place(-75.0, 2.0, 1.6)
     return {
-        "name": "test-out-of-image",
-        "duration": duration,
-        "seed": seed,
-        "room": {"dims": [5.0, 4.0, 2.7], "t60": 0.25},
-        "array": {"name": "nao4", "position": ARRAY, "yaw_deg": 90.0},
-        "camera": {"hfov_deg": 60.0, "width": 640, "height": 480},
+        **_small_room("test-out-of-image", seed, duration, hfov_deg=60.0),
         "people": [
             {"id": 1, "motion": {"type": "waypoints", "waypoints": [
                 [0.0, *home], [3.0, *home], [5.0, *away], [11.0, *away], [13.0, *home],

@@ -102,13 +102,19 @@ def test_missing_file_is_one_line_error(files, tmp_path, capsys):
     assert err == f"avtrack: error: {missing}: file not found\n"
 
 
+def _one_line_error(capsys, argv: list[str]) -> str:
+    """The error message of ``avtrack argv``, checked to be one line and to exit with 2."""
+    assert cli_main.main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    return err
+
+
 def test_malformed_file_is_one_line_error(files, tmp_path, capsys):
     gt, _ = files
     bad = tmp_path / "bad.txt"
     bad.write_text("1,1,10,20,100,100,1\n2,1,abc,20,100,100,1\n")
-    assert cli_main.main(["eval", "mot", str(gt), str(bad)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1
+    err = _one_line_error(capsys, ["eval", "mot", str(gt), str(bad)])
     assert err.startswith(f"avtrack: error: {bad}, row 2: column 3 is not a number")
 
 
@@ -116,9 +122,7 @@ def test_unscorable_result_is_one_line_error(files, tmp_path, capsys):
     gt, _ = files
     dup = tmp_path / "dup.txt"
     dup.write_text("1,5,10,20,100,100,1\n1,5,50,20,100,100,1\n")
-    assert cli_main.main(["eval", "mot", str(gt), str(dup)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1
+    err = _one_line_error(capsys, ["eval", "mot", str(gt), str(dup)])
     assert f"cannot score {dup} against {gt}" in err and "id 5 more than once in frame 1" in err
 
 

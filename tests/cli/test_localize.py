@@ -8,14 +8,14 @@ import soundfile as sf
 
 import avtrack.cli.main as cli_main
 from avtrack.io.doa import DOA_HEADER, DOATable, read_doa_csv, write_doa_csv
+from tests.cli.commands import register_command
 from tests.localize.conftest import SOURCE_AZIMUTH_DEG, render_static_scene
 
 
 @pytest.fixture(autouse=True)
 def with_localize(monkeypatch):
     """``localize`` is added to the CLI by main.py's owner; register it for these tests."""
-    if "localize" not in cli_main.COMMAND_MODULES:
-        monkeypatch.setattr(cli_main, "COMMAND_MODULES", (*cli_main.COMMAND_MODULES, "localize"))
+    register_command(monkeypatch, "localize")
 
 
 @pytest.fixture(scope="module")

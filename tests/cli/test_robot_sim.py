@@ -4,16 +4,14 @@ from __future__ import annotations
 
 import pytest
 
-from avtrack.cli import main as cli_main
 from avtrack.io.mot import read_mot
+from tests.cli.commands import register_command
 
 
 @pytest.fixture
 def main(monkeypatch):
     """``avtrack.cli.main.main`` with the robot-sim command registered."""
-    if "robot_sim" not in cli_main.COMMAND_MODULES:
-        monkeypatch.setattr(cli_main, "COMMAND_MODULES", (*cli_main.COMMAND_MODULES, "robot_sim"))
-    return cli_main.main
+    return register_command(monkeypatch, "robot_sim")
 
 
 def test_robot_sim_writes_tracks_gt_and_servo_log(main, tmp_path, capsys):

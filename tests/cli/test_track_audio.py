@@ -12,6 +12,7 @@ import avtrack.cli.main as cli_main
 from avtrack.cli import track_audio
 from avtrack.io.doa import DOA_HEADER, DOATable, read_doa_csv, write_doa_csv
 from avtrack.simulate.heatmaps import synthetic_heatmaps
+from tests.cli.commands import register_command
 from tests.localize.conftest import SOURCE_AZIMUTH_DEG, render_static_scene
 
 GRID = -180.0 + 5.0 * np.arange(1, 73)
@@ -20,10 +21,7 @@ GRID = -180.0 + 5.0 * np.arange(1, 73)
 @pytest.fixture(autouse=True)
 def with_track_audio(monkeypatch):
     """``track_audio`` is added to the CLI by main.py's owner; register it for these tests."""
-    if "track_audio" not in cli_main.COMMAND_MODULES:
-        monkeypatch.setattr(
-            cli_main, "COMMAND_MODULES", (*cli_main.COMMAND_MODULES, "track_audio")
-        )
+    register_command(monkeypatch, "track_audio")
 
 
 def main(*args) -> int:

@@ -7,17 +7,15 @@ import shutil
 import numpy as np
 import pytest
 
-import avtrack.cli.main as cli_main
 from avtrack.io.mot import read_mot
 from avtrack.io.rttm import read_rttm
 from tests.av.scenes import out_of_image, walkout
+from tests.cli.commands import register_command
 
 
 @pytest.fixture
 def main(monkeypatch):
-    if "track_av" not in cli_main.COMMAND_MODULES:
-        monkeypatch.setattr(cli_main, "COMMAND_MODULES", (*cli_main.COMMAND_MODULES, "track_av"))
-    return cli_main.main
+    return register_command(monkeypatch, "track_av")
 
 
 def test_track_av_writes_tracks_rttm_and_figure(main, tmp_path, capsys):

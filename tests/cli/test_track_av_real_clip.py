@@ -10,6 +10,7 @@ import yaml
 
 import avtrack.cli.main as cli_main
 from tests.conftest import shared_data_dir
+from tests.io.test_video import read_video
 
 FIRST, N_FRAMES, FPS = 150, 100, 25.0  # frames 151-250: both people in view, person 1 talks
 
@@ -106,14 +107,7 @@ def test_own_recording_on_a_real_clip(shared_data, tmp_path, capsys):
 
     page = (out / "index.html").read_text()
     assert "tracks.webm" in page or "data:video/webm" in page
-    cap = cv2.VideoCapture(str(out / "tracks.webm"))
-    frames = []
-    while True:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        frames.append(frame)
-    cap.release()
+    frames = read_video(out / "tracks.webm")
     assert len(frames) == N_FRAMES
     original = cv2.VideoCapture(str(clip))
     ok, first = original.read()

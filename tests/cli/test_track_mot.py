@@ -84,14 +84,9 @@ def test_track_mot_empty_detections_give_empty_results(tmp_path, capsys):
 
 
 def test_track_mot_reads_seqinfo(tmp_path):
-    seq = tmp_path / "SEQ"
-    (seq / "det").mkdir(parents=True)
-    _, dets, _ = crossing_scene(1)
-    write_mot(seq / "det" / "det.txt", dets)
-    (seq / "seqinfo.ini").write_text(
-        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\n")
+    det = _crossing_sequence(tmp_path)
     out = tmp_path / "res.txt"
-    assert main(["track-mot", str(seq / "det" / "det.txt"), "-o", str(out), "-q"]) == 0
+    assert main(["track-mot", str(det), "-o", str(out), "-q"]) == 0
 
 
 def test_help_has_examples(capsys):
@@ -111,15 +106,21 @@ def test_demo_prints_scores(shared_data, tmp_path, capsys, monkeypatch):
     assert (tmp_path / "demo" / "scores.json").is_file()
 
 
-def _sequence_at_7_fps(tmp_path):
-    """``SEQ/det/det.txt`` of a synthetic crossing with its ``seqinfo.ini`` (7 fps)."""
+def _crossing_sequence(tmp_path, seqinfo_extra: str = ""):
+    """``SEQ/det/det.txt`` of a synthetic crossing with its ``seqinfo.ini`` (640 x 480, 70
+    frames, then the lines ``seqinfo_extra``)."""
     seq = tmp_path / "SEQ"
     (seq / "det").mkdir(parents=True)
     _, dets, _ = crossing_scene(1)
     write_mot(seq / "det" / "det.txt", dets)
     (seq / "seqinfo.ini").write_text(
-        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\nframeRate=7\n")
+        "[Sequence]\nname=SEQ\nimWidth=640\nimHeight=480\nseqLength=70\n" + seqinfo_extra)
     return seq / "det" / "det.txt"
+
+
+def _sequence_at_7_fps(tmp_path):
+    """``SEQ/det/det.txt`` of a synthetic crossing with its ``seqinfo.ini`` (7 fps)."""
+    return _crossing_sequence(tmp_path, "frameRate=7\n")
 
 
 def test_track_mot_frame_rate_from_seqinfo_and_option(tmp_path, monkeypatch):

@@ -5,15 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import avtrack.cli.main as cli_main
+from tests.cli.commands import register_command
 from tests.io.test_av163 import write_av163
 
 
 @pytest.fixture
 def main(monkeypatch):
-    if "track_phd" not in cli_main.COMMAND_MODULES:
-        monkeypatch.setattr(cli_main, "COMMAND_MODULES", (*cli_main.COMMAND_MODULES, "track_phd"))
-    return cli_main.main
+    return register_command(monkeypatch, "track_phd")
 
 
 @pytest.fixture

@@ -32,31 +32,20 @@ from avtrack.io.doa import DOATable, wrap_azimuth
 from avtrack.metrics.doa_tracking import evaluate_tracks
 from avtrack.simulate.heatmaps import synthetic_heatmaps
 from avtrack.vem.engine import VEMEngine
+from tests.doa.synthetic import (
+    GRID,
+    assert_one_track_across_180,
+    heatmaps_and_truth,
+    moving,
+)
 
-GRID = -180.0 + 5.0 * np.arange(1, 73)  # thesis §5.5.1: 72 azimuths every 5°
 OBS = DEFAULT_OBSERVATIONS["gauss"]  # how the tracker observes a heat map by default
 
 
 def scene(az: np.ndarray, on: np.ndarray, seed: int = 0, observations: str = OBS, **kw):
     """Heat maps of sources ``az (T, K)`` and the matching ground truth (32 ms frames)."""
-    rng = np.random.default_rng(seed)
-    t_, k = az.shape
-    w = synthetic_heatmaps(az, on, GRID, rng, **kw)
-    t = np.arange(t_) * FRAME_PERIOD_S
-    truth = DOATable(
-        np.repeat(np.arange(t_), k),
-        np.repeat(t, k),
-        np.tile(np.arange(1, k + 1), t_),
-        wrap_azimuth(az.ravel()),
-        np.zeros(az.size),
-        np.ones(az.size),
-        on.ravel(),
-    )
+    w, t, truth = heatmaps_and_truth(az, on, seed, **kw)
     return heatmap_sequence(w, GRID, time_s=t, step=1, observations=observations), truth
-
-
-def moving(start: float, speed_deg_s: float, n: int = 250) -> np.ndarray:
-    return wrap_azimuth(start + speed_deg_s * np.arange(n) * FRAME_PERIOD_S)
 
 
 def matched_ids(tracks: DOATable, truth: DOATable, speaker: int, frames: np.ndarray):
@@ -122,11 +111,7 @@ def test_two_crossing_sources_are_tracked():
 def test_angles_wrap_at_180(start, speed, seed):
     az = moving(start, -speed, 160)[:, None]  # crosses +180 -> -180 after < 1 s
     seq, truth = scene(az, np.ones(az.shape, bool), seed=seed)
-    tracks = make_tracker("gauss").run(seq)
-    assert np.all(tracks.azimuth_deg > -180.0) and np.all(tracks.azimuth_deg <= 180.0)
-    s = evaluate_tracks(tracks, truth)
-    assert s.mae < 3.0 and s.md_rate < 0.15
-    assert len(np.unique(tracks.ids[tracks.active])) == 1
+    assert_one_track_across_180(make_tracker("gauss").run(seq), truth)
 
 
 def test_transition_is_eq_5_27_and_normalisation():

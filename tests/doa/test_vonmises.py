@@ -31,11 +31,14 @@ from avtrack.doa.vonmises import (
     log_i0,
     predicted_concentration,
 )
-from avtrack.io.doa import DOATable, wrap_azimuth
+from avtrack.io.doa import wrap_azimuth
 from avtrack.metrics.doa_tracking import evaluate_tracks
-from avtrack.simulate.heatmaps import synthetic_heatmaps
-
-GRID = -180.0 + 5.0 * np.arange(1, 73)
+from tests.doa.synthetic import (
+    GRID,
+    assert_one_track_across_180,
+    heatmaps_and_truth,
+    moving,
+)
 
 
 def vm_pdf(x, mu, kappa):
@@ -44,24 +47,8 @@ def vm_pdf(x, mu, kappa):
 
 def scene(az: np.ndarray, on: np.ndarray, seed: int = 0):
     """Peak observations (thesis §5.6.5) of sources ``az (T, K)`` and their ground truth."""
-    rng = np.random.default_rng(seed)
-    t_, k = az.shape
-    w = synthetic_heatmaps(az, on, GRID, rng)
-    t = np.arange(t_) * FRAME_PERIOD_S
-    truth = DOATable(
-        np.repeat(np.arange(t_), k),
-        np.repeat(t, k),
-        np.tile(np.arange(1, k + 1), t_),
-        wrap_azimuth(az.ravel()),
-        np.zeros(az.size),
-        np.ones(az.size),
-        on.ravel(),
-    )
+    w, t, truth = heatmaps_and_truth(az, on, seed)
     return DOASequence.from_weights(w, GRID, time_s=t, peaks_only=True, floor=0.05), truth
-
-
-def moving(start: float, speed_deg_s: float, n: int = 250) -> np.ndarray:
-    return wrap_azimuth(start + speed_deg_s * np.arange(n) * FRAME_PERIOD_S)
 
 
 # --- Bessel functions --------------------------------------------------------------------
@@ -243,11 +230,7 @@ def test_two_crossing_sources_are_tracked():
 def test_angles_wrap_at_180(start, speed, seed):
     az = moving(start, speed, 160)[:, None]  # crosses +180 -> -180
     seq, truth = scene(az, np.ones(az.shape, bool), seed=seed)
-    tracks = make_tracker("vonmises").run(seq)
-    assert np.all(tracks.azimuth_deg > -180.0) and np.all(tracks.azimuth_deg <= 180.0)
-    s = evaluate_tracks(tracks, truth)
-    assert s.mae < 3.0 and s.md_rate < 0.15
-    assert len(np.unique(tracks.ids[tracks.active])) == 1
+    assert_one_track_across_180(make_tracker("vonmises").run(seq), truth)
 
 
 def test_config_validation():

@@ -145,48 +145,43 @@ def test_one_based_files(tmp_path):
         read_avdiar_boxes(path, zero_based=False)
 
 
-@pytest.mark.parametrize(
-    ("text", "row", "message"),
-    [
-        ("0,1,1,1,5,5\n1,1,1,1,5\n", 2, "expected at least 6 values"),
-        ("0,1,1,1,5,5\n\n1,x,1,1,5,5\n", 3, "not a number: 'x'"),
-        ("0,1,nan,1,5,5\n", 1, "left is nan, expected a finite number"),
-        ("0,1,1,1,0,5\n", 1, "box width and height must be > 0, got 0 x 5"),
-        ("-1,1,1,1,5,5\n", 1, "frame must be an integer >= 0, got '-1'"),
-        ("0,1.5,1,1,5,5\n", 1, "person must be an integer >= 1, got '1.5'"),
-        ("0,0,1,1,5,5\n", 1, "person must be an integer >= 1, got '0'"),
-        ("0,2,1,1,5,5\n1,2,1,1,5,5\n0,2,3,3,5,5\n", 3, "person 2 has a second box in frame 0"),
-    ],
-)
-def test_bad_box_rows_are_named(tmp_path, text, row, message):
-    path = tmp_path / "face_bb.txt"
-    path.write_text(text)
-    with pytest.raises(InputError, match=where(path, row) + re.escape(message)):
-        read_avdiar_boxes(path)
+#: (text, row, message) of malformed face_bb.txt rows and speakers.rttm lines
+BAD_BOX_ROWS = [
+    ("0,1,1,1,5,5\n1,1,1,1,5\n", 2, "expected at least 6 values"),
+    ("0,1,1,1,5,5\n\n1,x,1,1,5,5\n", 3, "not a number: 'x'"),
+    ("0,1,nan,1,5,5\n", 1, "left is nan, expected a finite number"),
+    ("0,1,1,1,0,5\n", 1, "box width and height must be > 0, got 0 x 5"),
+    ("-1,1,1,1,5,5\n", 1, "frame must be an integer >= 0, got '-1'"),
+    ("0,1.5,1,1,5,5\n", 1, "person must be an integer >= 1, got '1.5'"),
+    ("0,0,1,1,5,5\n", 1, "person must be an integer >= 1, got '0'"),
+    ("0,2,1,1,5,5\n1,2,1,1,5,5\n0,2,3,3,5,5\n", 3, "person 2 has a second box in frame 0"),
+]
+BAD_RTTM_LINES = [
+    (
+        "SPEAKER f 1 0.5 <NA> <NA> <NA> speaker-1 <NA>\n",
+        1,
+        "onset and duration must be numbers, got '0.5' and '<NA>'",
+    ),
+    (
+        ";; c\nSPEAKER f 1 0.5 -1 <NA> <NA> speaker-1 <NA>\n",
+        2,
+        "onset and duration must be finite and >= 0, got 0.5 and -1",
+    ),
+    ("SPEAKER f 1 0.5 1\n", 1, "expected at least 8 fields"),
+    ("LEXEME f 1 0.5 1 hello word speaker-1 <NA>\n", 1, "unknown RTTM line type 'LEXEME'"),
+]
 
 
 @pytest.mark.parametrize(
-    ("text", "row", "message"),
-    [
-        (
-            "SPEAKER f 1 0.5 <NA> <NA> <NA> speaker-1 <NA>\n",
-            1,
-            "onset and duration must be numbers, got '0.5' and '<NA>'",
-        ),
-        (
-            ";; c\nSPEAKER f 1 0.5 -1 <NA> <NA> speaker-1 <NA>\n",
-            2,
-            "onset and duration must be finite and >= 0, got 0.5 and -1",
-        ),
-        ("SPEAKER f 1 0.5 1\n", 1, "expected at least 8 fields"),
-        ("LEXEME f 1 0.5 1 hello word speaker-1 <NA>\n", 1, "unknown RTTM line type 'LEXEME'"),
-    ],
+    ("name", "reader", "text", "row", "message"),
+    [("face_bb.txt", read_avdiar_boxes, *case) for case in BAD_BOX_ROWS]
+    + [("speakers.rttm", read_rttm, *case) for case in BAD_RTTM_LINES],
 )
-def test_bad_rttm_lines_are_named(tmp_path, text, row, message):
-    path = tmp_path / "speakers.rttm"
+def test_bad_rows_are_named(tmp_path, name, reader, text, row, message):
+    path = tmp_path / name
     path.write_text(text)
     with pytest.raises(InputError, match=where(path, row) + re.escape(message)):
-        read_rttm(path)
+        reader(path)
 
 
 def test_rttm_person_numbers():

@@ -173,20 +173,15 @@ def samples(tmp_path_factory) -> dict[str, bytes]:
     return {"rttm": _rttm_bytes(tmp), "doa": _doa_bytes(tmp)}
 
 
+@pytest.mark.parametrize(
+    ("kind", "name", "reader"), [("rttm", "x.rttm", read_rttm), ("doa", "x.csv", read_doa_csv)]
+)
 @FUZZ
 @given(data=st.data())
-def test_fuzz_rttm(tmp_path_factory, samples, data):
-    path = tmp_path_factory.mktemp("fuzz") / "x.rttm"
-    path.write_bytes(data.draw(mutations(samples["rttm"])))
-    check(read_rttm, path)
-
-
-@FUZZ
-@given(data=st.data())
-def test_fuzz_doa_csv(tmp_path_factory, samples, data):
-    path = tmp_path_factory.mktemp("fuzz") / "x.csv"
-    path.write_bytes(data.draw(mutations(samples["doa"])))
-    check(read_doa_csv, path)
+def test_fuzz_text_readers(tmp_path_factory, samples, kind, name, reader, data):
+    path = tmp_path_factory.mktemp("fuzz") / name
+    path.write_bytes(data.draw(mutations(samples[kind])))
+    check(reader, path)
 
 
 def test_valid_samples_are_read(tmp_path, samples):

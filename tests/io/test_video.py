@@ -28,6 +28,21 @@ def write_video(path, n_frames=12, size=(96, 64), fps=10.0):
     return frames
 
 
+def read_video(path) -> list[np.ndarray]:
+    """Every frame of the video at ``path``, decoded by OpenCV."""
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    frames = []
+    while True:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(frame)
+    cap.release()
+    return frames
+
+
 def test_probe_and_decode_a_small_video(tmp_path):
     path = tmp_path / "v.avi"
     written = write_video(path)
@@ -147,7 +162,6 @@ def test_shared_real_videos(shared_data):
 def test_track_mot_report_draws_over_the_real_frames(tmp_path):
     """--report DIR: index.html and tracks.webm whose frames are the video's own (grey with
     the red square), scored against SEQ/gt/gt.txt when the sequence folder has one."""
-    import cv2
 
     from avtrack.cli.main import main
 
@@ -167,13 +181,7 @@ def test_track_mot_report_draws_over_the_real_frames(tmp_path):
     assert main([*args, "--report", str(report)]) == 0
     page = (report / "index.html").read_text()
     assert "MOTA" in page and "IDF1" in page
-    cap = cv2.VideoCapture(str(report / "tracks.webm"))
-    got = []
-    while True:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        got.append(frame)
+    got = read_video(report / "tracks.webm")
     assert len(got) == 12
     # away from the header band and the legend (top left): the video's own grey, where a
     # rendered room would have its walls and floor

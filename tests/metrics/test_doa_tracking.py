@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 
 import numpy as np
@@ -171,33 +172,9 @@ def test_scores_invariant_to_relabelling_and_rotation(seed, shift):
     est, truth = _random_case(rng, 15)
     base = evaluate_tracks(est, truth)
     perm = rng.permutation(10) + 1  # a bijection of the track ids 1..10
-    relabelled = DOATable(
-        est.frames,
-        est.time_s,
-        perm[est.ids - 1],
-        est.azimuth_deg,
-        est.elevation_deg,
-        est.weight,
-        est.active,
-    )
-    rotated_e = DOATable(
-        est.frames,
-        est.time_s,
-        est.ids,
-        wrap_azimuth(est.azimuth_deg + shift),
-        est.elevation_deg,
-        est.weight,
-        est.active,
-    )
-    rotated_t = DOATable(
-        truth.frames,
-        truth.time_s,
-        truth.ids,
-        wrap_azimuth(truth.azimuth_deg + shift),
-        truth.elevation_deg,
-        truth.weight,
-        truth.active,
-    )
+    relabelled = dataclasses.replace(est, ids=perm[est.ids - 1])
+    rotated_e = dataclasses.replace(est, azimuth_deg=wrap_azimuth(est.azimuth_deg + shift))
+    rotated_t = dataclasses.replace(truth, azimuth_deg=wrap_azimuth(truth.azimuth_deg + shift))
     for other in (evaluate_tracks(relabelled, truth), evaluate_tracks(rotated_e, rotated_t)):
         assert other.doa.n_success == base.doa.n_success
         assert other.id_switches == base.id_switches

@@ -346,14 +346,19 @@ def test_exclusive_projection_overflow_goes_to_the_other_target():
     assert q[0, 1] > q[1, 1]
 
 
-@settings(max_examples=50, deadline=None)
-@given(
-    logits=hnp.arrays(np.float64, (4, 4), elements=st.floats(-5, 5)),
-    clutter_logit=hnp.arrays(np.float64, (4,), elements=st.floats(-5, 5)),
-)
-def test_exclusive_projection_invariants(logits, clutter_logit):
+@st.composite
+def moderate_responsibilities(draw: st.DrawFn) -> np.ndarray:
+    """``(4, 5)`` row-stochastic responsibilities, clutter in column 0, from logits in
+    [-5, 5]."""
+    logits = draw(hnp.arrays(np.float64, (4, 4), elements=st.floats(-5, 5)))
+    clutter_logit = draw(hnp.arrays(np.float64, (4,), elements=st.floats(-5, 5)))
     raw = np.exp(np.concatenate([clutter_logit[:, None], logits], axis=1))
-    alpha = raw / raw.sum(axis=1, keepdims=True)
+    return raw / raw.sum(axis=1, keepdims=True)
+
+
+@settings(max_examples=50, deadline=None)
+@given(alpha=moderate_responsibilities())
+def test_exclusive_projection_invariants(alpha):
     q = exclusive_projection(alpha)
     np.testing.assert_allclose(q.sum(axis=1), 1.0, rtol=0, atol=1e-12)
     assert np.all(q >= 0)
@@ -438,13 +443,8 @@ def test_exclusive_projection_meets_kkt_conditions(alpha):
 
 
 @settings(max_examples=100, deadline=None)
-@given(
-    logits=hnp.arrays(np.float64, (4, 4), elements=st.floats(-5, 5)),
-    clutter_logit=hnp.arrays(np.float64, (4,), elements=st.floats(-5, 5)),
-)
-def test_exclusive_projection_meets_kkt_conditions_on_moderate_alpha(logits, clutter_logit):
-    raw = np.exp(np.concatenate([clutter_logit[:, None], logits], axis=1))
-    alpha = raw / raw.sum(axis=1, keepdims=True)
+@given(alpha=moderate_responsibilities())
+def test_exclusive_projection_meets_kkt_conditions_on_moderate_alpha(alpha):
     assert_kkt(alpha, exclusive_projection(alpha))
 
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from avtrack.metrics.points import point_matches
 from avtrack.visual.colour import (
     ColourTemplateDetector,
     hue_saturation_bins,
@@ -84,20 +85,15 @@ def test_templates_find_the_speakers_on_the_real_av163_video(shared_data):
         pytest.skip(f"{video} not in the shared data")
     seq = load_av163(folder, 30, 1)
     det = ColourTemplateDetector(seq.histograms[~seq.histogram_is_placeholder])
-    hits = persons = near = points = 0
+    points, truths = [], []
     for t, frame in enumerate(iter_frames(video)):
         if t >= 300:
             break
         boxes, _ = det.detect(frame)
-        pts = np.column_stack([boxes[:, 0] + boxes[:, 2] / 2,
-                               boxes[:, 1] + TEMPLATE_MOUTH_OFFSET * boxes[:, 3]])
-        truth = seq.positions[seq.present[t], t]
-        for y in truth:
-            persons += 1
-            hits += bool(len(pts)) and np.min(np.linalg.norm(pts - y, axis=1)) < 20
-        for p in pts:
-            points += 1
-            near += bool(len(truth)) and np.min(np.linalg.norm(truth - p, axis=1)) < 40
-    assert persons > 200 and points > 100
-    assert hits / persons >= 0.4
-    assert near / points >= 0.6
+        points.append(np.column_stack([boxes[:, 0] + boxes[:, 2] / 2,
+                                       boxes[:, 1] + TEMPLATE_MOUTH_OFFSET * boxes[:, 3]]))
+        truths.append(seq.positions[seq.present[t], t])
+    m = point_matches(points, truths)
+    assert m.n_true > 200 and m.n_points > 100
+    assert m.recall >= 0.4
+    assert m.precision >= 0.6

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.cli.base import add_command, add_common, add_config_option
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write
+from avtrack.io.base import atomic_write, read_audio_file
 from avtrack.io.mot import read_mot
 from avtrack.metrics.mot import BENCHMARKS, TABLE_COLUMNS, evaluate_mot, format_table
 
@@ -95,7 +96,26 @@ Score a result against ground truth. Choose the task below.""",
         epilog=EVAL_EXAMPLES,
     )
     tasks = parser.add_subparsers(dest="eval_task", metavar="TASK", required=True)
+    _add_mot_task(tasks)
+    _add_doa_task(tasks)
+    _add_der_task(tasks)
+    _add_persons_task(tasks)
+    _add_voices_task(tasks)
 
+
+def _add_scores_outputs(
+    parser: argparse.ArgumentParser, run: Callable[[argparse.Namespace], int]
+) -> None:
+    """Add the options every eval task shares (``--json``, common, ``--config``) to *parser*."""
+    parser.add_argument(
+        "--json", type=Path, metavar="OUT.json", help="also write the scores as JSON"
+    )
+    add_common(parser, run)
+    add_config_option(parser)
+
+
+def _add_mot_task(tasks: argparse._SubParsersAction) -> None:
+    """Add the ``eval mot`` task: MOTChallenge tracking scores."""
     mot = add_command(
         tasks,
         "mot",
@@ -122,10 +142,11 @@ Files are MOTChallenge text: frame,id,left,top,width,height,conf,... (1-based fr
         metavar="N",
         help="sequence length (default: the last frame in either file)",
     )
-    mot.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(mot, run_mot)
-    add_config_option(mot)
+    _add_scores_outputs(mot, run_mot)
 
+
+def _add_doa_task(tasks: argparse._SubParsersAction) -> None:
+    """Add the ``eval doa`` task: speaker localization scores."""
     doa = add_command(
         tasks,
         "doa",
@@ -169,10 +190,11 @@ time.""",
         metavar="SECONDS",
         help="frame period used to align the files by time (default: %(default)s)",
     )
-    doa.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(doa, run_doa)
-    add_config_option(doa)
+    _add_scores_outputs(doa, run_doa)
 
+
+def _add_der_task(tasks: argparse._SubParsersAction) -> None:
+    """Add the ``eval der`` task: diarization error rate."""
     der = add_command(
         tasks,
         "der",
@@ -195,10 +217,11 @@ overlapping speech scored (DIHARD's scoring), and with --collar (and --skip-over
         "--skip-overlap", action="store_true",
         help="do not score regions where reference speakers overlap",
     )
-    der.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(der, run_der)
-    add_config_option(der)
+    _add_scores_outputs(der, run_der)
 
+
+def _add_persons_task(tasks: argparse._SubParsersAction) -> None:
+    """Add the ``eval persons`` task: out-of-view direction accuracy."""
     per = add_command(
         tasks,
         "persons",
@@ -219,10 +242,11 @@ of the out-of-view persons (lower is better) and the share of their frames match
                      "to track-av (default 1)")
     per.add_argument("--gate", type=float, default=30.0, metavar="DEG",
                      help="largest azimuth difference of a match (default %(default)s)")
-    per.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(per, run_persons)
-    add_config_option(per)
+    _add_scores_outputs(per, run_persons)
 
+
+def _add_voices_task(tasks: argparse._SubParsersAction) -> None:
+    """Add the ``eval voices`` task: SI-SDR of separated voices."""
     voi = add_command(
         tasks,
         "voices",
@@ -238,9 +262,7 @@ dB, higher is better).""",
     voi.add_argument("scene", type=Path, metavar="SCENE_DIR", help="scene directory")
     voi.add_argument("--gate", type=float, default=30.0, metavar="DEG",
                      help="largest azimuth difference of a match (default %(default)s)")
-    voi.add_argument("--json", type=Path, metavar="OUT.json", help="also write the scores as JSON")
-    add_common(voi, run_voices)
-    add_config_option(voi)
+    _add_scores_outputs(voi, run_voices)
 
 
 DOA_EXAMPLES = """\
@@ -442,14 +464,8 @@ def run_persons(args: argparse.Namespace) -> int:
 
 def _read_mono(path: Path, fs: int | None = None):
     import numpy as np
-    import soundfile as sf
 
-    if not path.is_file():
-        raise InputError("file not found", path)
-    try:
-        x, rate = sf.read(path, always_2d=True)
-    except (RuntimeError, sf.LibsndfileError) as exc:
-        raise InputError(f"cannot read audio: {exc}", path) from None
+    x, rate = read_audio_file(path)
     if x.shape[1] != 1:
         raise InputError(f"expected one channel, got {x.shape[1]}", path)
     if fs is not None and rate != fs:

@@ -486,6 +486,82 @@ def load_av163_histograms(folder: str | Path, seq: int, cam: int) -> tuple[np.nd
     return np.array(hists).reshape(-1, 16, 16), np.array(placeholder, dtype=bool)
 
 
+def _timing(data, path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``Data.Timingcam`` ``(T, 2)``, its times in seconds ``(T,)`` and frame numbers ``(T,)``."""
+    timing = _numeric(_field(data, "Data.Timingcam", path), "Data.Timingcam", path, (None, 2))
+    try:
+        time_s = decode_timecode(timing[:, 0])
+    except ValueError as exc:
+        raise InputError(f"Data.Timingcam {exc}", path) from None
+    frames = timing[:, 1]
+    if np.any(frames != np.rint(frames)) or np.any(np.diff(frames) <= 0) or frames[0] < 1:
+        raise InputError("Data.Timingcam frame numbers must be increasing integers >= 1", path)
+    return timing, time_s, frames
+
+
+def _ground_truth(data, path: Path, frames: np.ndarray):
+    """``Data.posGT``: the ``personK`` fields, the number of speakers ``(T,)``, who is present
+    ``(T, P)`` and the image positions ``(P, T, 2)`` (NaN where absent)."""
+    t = frames.shape[0]
+    pos_gt = _field(data, "Data.posGT", path)
+    n_spk = _numeric(
+        _field(pos_gt, "Data.posGT.N_speaker", path), "Data.posGT.N_speaker", path, (t,)
+    )
+    persons = _numbered(pos_gt, _PERSON)
+    if not persons:
+        raise InputError("Data.posGT has no personK fields", path)
+    p = len(persons)
+    positions = np.empty((p, t, 2))
+    present = np.ones((t, p), dtype=bool)
+    for k, (_, name) in enumerate(persons):
+        rows = _numeric(getattr(pos_gt, name), f"Data.posGT.{name}", path, (t, 3))
+        if np.any(rows[:, 0] != frames):
+            i = int(np.argmax(rows[:, 0] != frames))
+            raise InputError(
+                f"Data.posGT.{name} row {i + 1}: frame {rows[i, 0]:g} differs "
+                f"from Data.Timingcam frame {frames[i]:g}",
+                path,
+            )
+        positions[k] = rows[:, 1:3]
+        present[:, k] = ~np.all(rows[:, 1:3] == 0, axis=1)  # (0, 0) = absent
+    if hasattr(pos_gt, "X_true"):
+        x_true = _numeric(
+            pos_gt.X_true, "Data.posGT.X_true", path, (None, t, p) if p > 1 else (None, t)
+        )
+        x_true = x_true.reshape(x_true.shape[0], t, p)
+        present &= np.any(x_true != 0, axis=0)  # all-zero state = absent
+    positions[~present.T] = np.nan
+    return persons, n_spk, present, positions
+
+
+def _mouths(data, persons: list[tuple[int, str]], path: Path) -> list[AV163Mouth]:
+    """``Data.MouthGT3D``: each person's 3-D mouth track."""
+    mouth_gt = _field(data, "Data.MouthGT3D", path)
+    mouth = []
+    for _, name in persons:
+        rows = _numeric(
+            _field(mouth_gt, f"Data.MouthGT3D.{name}", path),
+            f"Data.MouthGT3D.{name}",
+            path,
+            (None, 5),
+        )
+        mouth.append(AV163Mouth(rows[:, 0], rows[:, 1], rows[:, 2:5]))
+    return mouth
+
+
+def _experiment_doa(data, path: Path) -> dict[str, tuple[np.ndarray, ...]]:
+    """``Data.experiment``: the ``ExGT`` and ``ExData`` DOA tables."""
+    experiment = _field(data, "Data.experiment", path)
+    doa = {}
+    for prefix in ("ExGT", "ExData"):
+        entries = _numbered(experiment, re.compile(prefix + r"(\d+)$"))
+        doa[prefix] = tuple(
+            _numeric(getattr(experiment, n), f"Data.experiment.{n}", path, (None, 2))
+            for _, n in entries
+        )
+    return doa
+
+
 def load_av163(folder: str | Path, seq: int, cam: int) -> AV163Sequence:
     """Read one AV16.3 sequence / camera: calibration, ground truth, DOA, histograms.
 
@@ -523,64 +599,11 @@ def load_av163(folder: str | Path, seq: int, cam: int) -> AV163Sequence:
     if abs(np.linalg.det(align)) < 1e-12:
         raise InputError("Data.align_mat is singular", path)
 
-    timing = _numeric(_field(data, "Data.Timingcam", path), "Data.Timingcam", path, (None, 2))
-    try:
-        time_s = decode_timecode(timing[:, 0])
-    except ValueError as exc:
-        raise InputError(f"Data.Timingcam {exc}", path) from None
-    frames = timing[:, 1]
-    if np.any(frames != np.rint(frames)) or np.any(np.diff(frames) <= 0) or frames[0] < 1:
-        raise InputError("Data.Timingcam frame numbers must be increasing integers >= 1", path)
+    timing, time_s, frames = _timing(data, path)
     t = timing.shape[0]
-
-    pos_gt = _field(data, "Data.posGT", path)
-    n_spk = _numeric(
-        _field(pos_gt, "Data.posGT.N_speaker", path), "Data.posGT.N_speaker", path, (t,)
-    )
-    persons = _numbered(pos_gt, _PERSON)
-    if not persons:
-        raise InputError("Data.posGT has no personK fields", path)
-    p = len(persons)
-    positions = np.empty((p, t, 2))
-    present = np.ones((t, p), dtype=bool)
-    for k, (_, name) in enumerate(persons):
-        rows = _numeric(getattr(pos_gt, name), f"Data.posGT.{name}", path, (t, 3))
-        if np.any(rows[:, 0] != frames):
-            i = int(np.argmax(rows[:, 0] != frames))
-            raise InputError(
-                f"Data.posGT.{name} row {i + 1}: frame {rows[i, 0]:g} differs "
-                f"from Data.Timingcam frame {frames[i]:g}",
-                path,
-            )
-        positions[k] = rows[:, 1:3]
-        present[:, k] = ~np.all(rows[:, 1:3] == 0, axis=1)  # (0, 0) = absent
-    if hasattr(pos_gt, "X_true"):
-        x_true = _numeric(
-            pos_gt.X_true, "Data.posGT.X_true", path, (None, t, p) if p > 1 else (None, t)
-        )
-        x_true = x_true.reshape(x_true.shape[0], t, p)
-        present &= np.any(x_true != 0, axis=0)  # all-zero state = absent
-    positions[~present.T] = np.nan
-
-    mouth_gt = _field(data, "Data.MouthGT3D", path)
-    mouth = []
-    for _, name in persons:
-        rows = _numeric(
-            _field(mouth_gt, f"Data.MouthGT3D.{name}", path),
-            f"Data.MouthGT3D.{name}",
-            path,
-            (None, 5),
-        )
-        mouth.append(AV163Mouth(rows[:, 0], rows[:, 1], rows[:, 2:5]))
-
-    experiment = _field(data, "Data.experiment", path)
-    doa = {}
-    for prefix in ("ExGT", "ExData"):
-        entries = _numbered(experiment, re.compile(prefix + r"(\d+)$"))
-        doa[prefix] = tuple(
-            _numeric(getattr(experiment, n), f"Data.experiment.{n}", path, (None, 2))
-            for _, n in entries
-        )
+    persons, n_spk, present, positions = _ground_truth(data, path, frames)
+    mouth = _mouths(data, persons, path)
+    doa = _experiment_doa(data, path)
 
     z_doa = load_av163_doa(folder, seq, cam)
     if len(z_doa) != t:

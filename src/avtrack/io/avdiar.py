@@ -379,6 +379,73 @@ def _positive_number(summary: dict[str, Any], key: str, path: Path) -> float | N
 # --------------------------------------------------------------------------- reader
 
 
+def _audio(wav: Path, summary: dict, summary_path: Path, load_audio: bool):
+    """The WAV file's samples ``(n_channels, n_samples)`` (None unless ``load_audio``) and its
+    header, checked against ``summary.json``."""
+    if not wav.is_file():
+        found = sorted(p.name for p in wav.parent.glob("*.wav"))
+        raise InputError(f"file not found (WAV files in Audio/: {found})", wav)
+    try:
+        info = sf.info(wav)
+    except (RuntimeError, sf.LibsndfileError) as exc:
+        raise InputError(f"cannot read as audio: {exc}", wav) from None
+    want_fs = _positive_number(summary, "Audio_FS", summary_path)
+    if want_fs is not None and info.samplerate != want_fs:
+        raise InputError(
+            f"sample rate is {info.samplerate} Hz, but {summary_path.name} gives "
+            f"Audio_FS = {want_fs:g} Hz",
+            wav,
+        )
+    want_ch = _positive_number(summary, "Audio_Channel", summary_path)
+    if want_ch is not None and info.channels != want_ch:
+        raise InputError(
+            f"{info.channels} channels, but {summary_path.name} gives Audio_Channel = {want_ch:g}",
+            wav,
+        )
+    audio = None
+    if load_audio:
+        data, _ = sf.read(wav, dtype="float64", always_2d=True)
+        audio = data.T
+        if not np.all(np.isfinite(audio)):
+            raise InputError("audio holds NaN or inf samples", wav)
+    return audio, info
+
+
+def _frame_count(
+    summary: dict, summary_path: Path, gt: Path, faces: MOTData, bodies: MOTData | None
+) -> int:
+    """``Number_of_Image`` of ``summary.json`` (the last annotated frame if absent); an
+    annotation beyond it is an error."""
+    last = max(faces.n_frames, bodies.n_frames if bodies is not None else 0)
+    n_img = _positive_number(summary, "Number_of_Image", summary_path)
+    if n_img is not None:
+        n_frames = int(n_img)
+        if last > n_frames:
+            bad = gt / ("face_bb.txt" if faces.n_frames > n_frames else "person_bb.txt")
+            raise InputError(
+                f"annotated frame {last} is beyond Number_of_Image = {n_frames} "
+                f"(frames counted from 1)",
+                bad,
+            )
+    else:
+        n_frames = last
+    return n_frames
+
+
+def _image_size(summary: dict, summary_path: Path) -> tuple[int, int] | None:
+    """``(width, height)`` of ``summary.json``'s ``Image_Resoultion_WH``, or None."""
+    image_size = None
+    wh = summary.get("Image_Resoultion_WH", summary.get("Image_Resolution_WH"))
+    if wh is not None:
+        try:
+            image_size = (int(wh[0]), int(wh[1]))
+        except (TypeError, ValueError, IndexError):
+            raise InputError(
+                f"Image_Resoultion_WH must be [width, height], got {wh!r}", summary_path
+            ) from None
+    return image_size
+
+
 def load_avdiar_sequence(
     folder: str | Path, *, load_audio: bool = True, zero_based: bool = True
 ) -> AVDIARSequence:
@@ -422,61 +489,14 @@ def load_avdiar_sequence(
     speakers = read_rttm(gt / "speakers.rttm")
     vad = read_rttm(gt / "vad.rttm") if (gt / "vad.rttm").exists() else None
 
-    wav = folder / "Audio" / f"{name}.wav"
-    if not wav.is_file():
-        found = sorted(p.name for p in (folder / "Audio").glob("*.wav"))
-        raise InputError(f"file not found (WAV files in Audio/: {found})", wav)
-    try:
-        info = sf.info(wav)
-    except (RuntimeError, sf.LibsndfileError) as exc:
-        raise InputError(f"cannot read as audio: {exc}", wav) from None
-    want_fs = _positive_number(summary, "Audio_FS", summary_path)
-    if want_fs is not None and info.samplerate != want_fs:
-        raise InputError(
-            f"sample rate is {info.samplerate} Hz, but {summary_path.name} gives "
-            f"Audio_FS = {want_fs:g} Hz",
-            wav,
-        )
-    want_ch = _positive_number(summary, "Audio_Channel", summary_path)
-    if want_ch is not None and info.channels != want_ch:
-        raise InputError(
-            f"{info.channels} channels, but {summary_path.name} gives Audio_Channel = {want_ch:g}",
-            wav,
-        )
-    audio = None
-    if load_audio:
-        data, _ = sf.read(wav, dtype="float64", always_2d=True)
-        audio = data.T
-        if not np.all(np.isfinite(audio)):
-            raise InputError("audio holds NaN or inf samples", wav)
-
-    last = max(faces.n_frames, bodies.n_frames if bodies is not None else 0)
-    n_img = _positive_number(summary, "Number_of_Image", summary_path)
-    if n_img is not None:
-        n_frames = int(n_img)
-        if last > n_frames:
-            bad = gt / ("face_bb.txt" if faces.n_frames > n_frames else "person_bb.txt")
-            raise InputError(
-                f"annotated frame {last} is beyond Number_of_Image = {n_frames} "
-                f"(frames counted from 1)",
-                bad,
-            )
-    else:
-        n_frames = last
+    audio, info = _audio(folder / "Audio" / f"{name}.wav", summary, summary_path, load_audio)
+    n_frames = _frame_count(summary, summary_path, gt, faces, bodies)
 
     m = _NAME.match(name)
     ids = [faces.ids, bodies.ids if bodies is not None else np.zeros(0), speakers.person]
     n_persons = int(m.group(2)) if m else int(max((a.max() for a in ids if a.size), default=0))
 
-    image_size = None
-    wh = summary.get("Image_Resoultion_WH", summary.get("Image_Resolution_WH"))
-    if wh is not None:
-        try:
-            image_size = (int(wh[0]), int(wh[1]))
-        except (TypeError, ValueError, IndexError):
-            raise InputError(
-                f"Image_Resoultion_WH must be [width, height], got {wh!r}", summary_path
-            ) from None
+    image_size = _image_size(summary, summary_path)
 
     return AVDIARSequence(
         name=name,

@@ -132,3 +132,18 @@ def read_yaml_file(path: str | Path, what: str) -> Any:
         row = None if mark is None else mark.line + 1
         problem = getattr(exc, "problem", None) or " ".join(str(exc).split())
         raise InputError(f"not valid YAML ({problem})", path, row) from None
+
+
+def read_audio_file(path: Path, missing: str = "file not found") -> tuple[Any, int]:
+    """The samples ``(n_samples, n_channels)`` (float64) of the audio file at ``path`` and its
+    sample rate; an InputError naming ``path`` (with the message ``missing`` when there is no
+    such file) if it cannot be read."""
+    import soundfile as sf
+
+    if not path.is_file():
+        raise InputError(missing, path)
+    try:
+        x, rate = sf.read(path, always_2d=True)
+    except (RuntimeError, sf.LibsndfileError) as exc:
+        raise InputError(f"cannot read audio: {exc}", path) from None
+    return x, rate

@@ -399,6 +399,56 @@ def _read_pose(
 # --------------------------------------------------------------------------- readers
 
 
+def _read_audio(wav: Path, array: str, fs: int | None) -> tuple[np.ndarray, int]:
+    """The array's signals ``(n_channels, n_samples)`` and their sample rate (checked against
+    ``fs`` when given)."""
+    if not wav.is_file():
+        found = sorted(p.name for p in wav.parent.glob("audio_array_*.wav"))
+        raise InputError(f"file not found (array {array!r}; array audio here: {found})", wav)
+    try:
+        audio, rate = sf.read(wav, dtype="float64", always_2d=True)
+    except (RuntimeError, sf.LibsndfileError) as exc:
+        raise InputError(f"cannot read as audio: {exc}", wav) from None
+    if fs is not None and rate != fs:
+        raise InputError(f"sample rate is {rate} Hz, expected {fs} Hz", wav)
+    audio = audio.T
+    if not np.all(np.isfinite(audio)):
+        raise InputError("audio holds NaN or inf samples", wav)
+    return audio, rate
+
+
+def _audio_times(
+    ts_path: Path, origin: tuple[float, ...], n: int, wav: Path
+) -> np.ndarray | None:
+    """The time of every audio sample in seconds from ``origin`` ``(n_samples,)``, or None
+    without a timestamp file."""
+    audio_times = None
+    if ts_path.is_file():
+        audio_times = _read_table(ts_path).seconds(origin)
+        if len(audio_times) != n:
+            raise InputError(
+                f"{len(audio_times)} timestamps for {n} audio samples of {wav.name}", ts_path
+            )
+    return audio_times
+
+
+def _read_vad(vad_paths: list[Path], n: int, wav: Path) -> np.ndarray | None:
+    """The sources' voice activity ``(n_sources, n_samples)`` bool, or None without VAD
+    files (which must then be there for every source or none)."""
+    vad = None
+    if any(p.is_file() for p in vad_paths):
+        rows = []
+        for p in vad_paths:
+            if not p.is_file():
+                raise InputError("file not found (the other sources have VAD files)", p)
+            v = _read_table(p).binary("VAD")
+            if len(v) != n:
+                raise InputError(f"{len(v)} VAD rows for {n} audio samples of {wav.name}", p)
+            rows.append(v)
+        vad = np.array(rows)
+    return vad
+
+
 def load_locata_recording(
     folder: str | Path,
     array: str | None = None,
@@ -445,33 +495,15 @@ def load_locata_recording(
     required_valid = required.binary("valid_flag")
 
     wav = folder / f"audio_array_{array}.wav"
-    if not wav.is_file():
-        found = sorted(p.name for p in folder.glob("audio_array_*.wav"))
-        raise InputError(f"file not found (array {array!r}; array audio here: {found})", wav)
-    try:
-        audio, rate = sf.read(wav, dtype="float64", always_2d=True)
-    except (RuntimeError, sf.LibsndfileError) as exc:
-        raise InputError(f"cannot read as audio: {exc}", wav) from None
-    if fs is not None and rate != fs:
-        raise InputError(f"sample rate is {rate} Hz, expected {fs} Hz", wav)
-    audio = audio.T
-    if not np.all(np.isfinite(audio)):
-        raise InputError("audio holds NaN or inf samples", wav)
+    audio, rate = _read_audio(wav, array, fs)
     n = audio.shape[1]
 
     array_pose = _read_pose(
         folder / f"position_array_{array}.txt", origin, audio.shape[0], allow_nan_positions
     )
 
-    audio_times = None
     ts_path = folder / f"audio_array_timestamps_{array}.txt"
-    if ts_path.is_file():
-        audio_times = _read_table(ts_path).seconds(origin)
-        if len(audio_times) != n:
-            raise InputError(
-                f"{len(audio_times)} timestamps for {n} audio samples of {wav.name}", ts_path
-            )
-
+    audio_times = _audio_times(ts_path, origin, n, wav)
     names = sorted(
         (
             m.group(1)
@@ -485,18 +517,7 @@ def load_locata_recording(
         for s in names
     )
 
-    vad_paths = [folder / f"VAD_{array}_{s}.txt" for s in names]
-    vad = None
-    if any(p.is_file() for p in vad_paths):
-        rows = []
-        for p in vad_paths:
-            if not p.is_file():
-                raise InputError("file not found (the other sources have VAD files)", p)
-            v = _read_table(p).binary("VAD")
-            if len(v) != n:
-                raise InputError(f"{len(v)} VAD rows for {n} audio samples of {wav.name}", p)
-            rows.append(v)
-        vad = np.array(rows)
+    vad = _read_vad([folder / f"VAD_{array}_{s}.txt" for s in names], n, wav)
 
     return LOCATARecording(
         folder=folder,

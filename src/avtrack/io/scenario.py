@@ -212,6 +212,103 @@ def _merge(defaults: dict, given: dict) -> dict:
     return out
 
 
+def _check_room(ck: _Checker, room: dict) -> None:
+    """Check ``room`` in place: its size and reverberation time."""
+    room["dims"] = ck.vector(room["dims"], "room.dims")
+    for i, d in enumerate(room["dims"]):
+        if not 1.0 <= d <= 100.0:
+            ck.fail(f"room.dims[{i}]", f"expected a size in [1, 100] metres, got {d}")
+    room["t60"] = ck.number(room["t60"], "room.t60", lo=0, hi=3.0)
+
+
+def _check_array(ck: _Checker, arr: dict, dims: list[float]) -> None:
+    """Check ``array`` in place: its name, HRIR flag and pose inside the room ``dims``."""
+    if not isinstance(arr["name"], str) or not arr["name"]:
+        ck.fail("array.name", f"expected a built-in name or a JSON path, got {_show(arr['name'])}")
+    if not isinstance(arr["hrir"], bool):
+        ck.fail("array.hrir", f"expected true or false, got {_show(arr['hrir'])}")
+    arr["position"] = ck.vector(arr["position"], "array.position")
+    _inside(ck, arr["position"], dims, "array.position")
+    arr["yaw_deg"] = ck.number(arr["yaw_deg"], "array.yaw_deg", lo=-360, hi=360)
+
+
+def _check_camera(ck: _Checker, cam: dict, dims: list[float]) -> None:
+    """Check ``camera`` in place: field of view, image size and pose inside the room ``dims``."""
+    cam["hfov_deg"] = ck.number(cam["hfov_deg"], "camera.hfov_deg", lo=10, hi=170)
+    cam["width"] = ck.integer(cam["width"], "camera.width", lo=16, hi=10000)
+    cam["height"] = ck.integer(cam["height"], "camera.height", lo=16, hi=10000)
+    if cam["position"] is not None:
+        cam["position"] = ck.vector(cam["position"], "camera.position")
+        _inside(ck, cam["position"], dims, "camera.position")
+    if cam["yaw_deg"] is not None:
+        cam["yaw_deg"] = ck.number(cam["yaw_deg"], "camera.yaw_deg", lo=-360, hi=360)
+    cam["pitch_deg"] = ck.number(cam["pitch_deg"], "camera.pitch_deg", lo=-89, hi=89)
+
+
+def _check_speech(ck: _Checker, sp: dict) -> None:
+    """Check ``speech`` in place: mode, utterances and the turn-taking parameters."""
+    sp["mode"] = ck.choice(sp["mode"], "speech.mode", SPEECH_MODES)
+    if not isinstance(sp["utterances"], str) or not sp["utterances"]:
+        ck.fail(
+            "speech.utterances",
+            f"expected auto, shared, synthetic or a folder, got {_show(sp['utterances'])}",
+        )
+    sp["mean_turn"] = ck.number(sp["mean_turn"], "speech.mean_turn", lo=0.2, hi=60)
+    sp["mean_pause"] = ck.number(sp["mean_pause"], "speech.mean_pause", lo=0, hi=60)
+    sp["overlap_prob"] = ck.number(sp["overlap_prob"], "speech.overlap_prob", lo=0, hi=1)
+
+
+def _check_noise(ck: _Checker, nz: dict) -> None:
+    """Check ``noise`` in place: the optional SNRs."""
+    nz["diffuse_snr_db"] = ck.optional_number(
+        nz["diffuse_snr_db"], "noise.diffuse_snr_db", lo=-30, hi=100
+    )
+    nz["fan_snr_db"] = ck.optional_number(nz["fan_snr_db"], "noise.fan_snr_db", lo=-30, hi=100)
+
+
+def _check_sensors(ck: _Checker, raw_sensors: Any) -> dict:
+    """The ``sensors`` mapping checked, with its defaults filled in."""
+    ck.unknown(ck.mapping(raw_sensors, "sensors"), SENSOR_DEFAULTS, "sensors")
+    sn = _merge(SENSOR_DEFAULTS, raw_sensors)
+    sn["gain_mismatch_db"] = ck.number(
+        sn["gain_mismatch_db"], "sensors.gain_mismatch_db", lo=0, hi=20
+    )
+    sn["delay_mismatch_samples"] = ck.number(
+        sn["delay_mismatch_samples"], "sensors.delay_mismatch_samples", lo=0, hi=16
+    )
+    sn["self_noise_snr_db"] = ck.optional_number(
+        sn["self_noise_snr_db"], "sensors.self_noise_snr_db", lo=-30, hi=100
+    )
+    return sn
+
+
+def _check_detector(ck: _Checker, det: dict) -> None:
+    """Check ``detector`` in place: rates, noise levels and the appearance dimension."""
+    for key in ("miss_rate", "occlusion_threshold"):
+        det[key] = ck.number(det[key], f"detector.{key}", lo=0, hi=1)
+    for key in ("false_alarm_rate", "centre_noise", "size_noise", "appearance_noise"):
+        det[key] = ck.number(det[key], f"detector.{key}", lo=0, hi=100)
+    det["appearance_dim"] = ck.integer(det["appearance_dim"], "detector.appearance_dim", lo=2)
+
+
+def _check_people(ck: _Checker, people_raw: Any, sc: dict) -> list[dict]:
+    """The ``people`` list checked person by person (unique ids), with defaults filled in."""
+    if not isinstance(people_raw, list) or not people_raw:
+        ck.fail("people", f"expected a non-empty list of people, got {_show(people_raw)}")
+    people = []
+    seen: set[int] = set()
+    for i, person in enumerate(people_raw):
+        people.append(_validate_person(ck, person, i, sc))
+        pid = people[-1]["id"]
+        if pid in seen:
+            ck.fail(f"people[{i}].id", f"duplicate id {pid}")
+        seen.add(pid)
+    vad = sc["speech"]["mode"] == "vad"
+    if vad and not any(p["motion"]["type"] == "azimuth-track" for p in people):
+        ck.fail("speech.mode", "'vad' needs at least one person with an azimuth-track motion")
+    return people
+
+
 def validate_scenario(raw: Any, path: str | Path | None = None) -> dict:
     """Check a scenario mapping field by field and return it with every default filled in.
 
@@ -243,87 +340,17 @@ def validate_scenario(raw: Any, path: str | Path | None = None) -> dict:
     sc["fps"] = ck.number(sc["fps"], "fps", lo=1, hi=240)
     sc["gt_hop_s"] = ck.number(sc["gt_hop_s"], "gt_hop_s", lo=0.001, hi=1.0)
 
-    room = sc["room"]
-    room["dims"] = ck.vector(room["dims"], "room.dims")
-    for i, d in enumerate(room["dims"]):
-        if not 1.0 <= d <= 100.0:
-            ck.fail(f"room.dims[{i}]", f"expected a size in [1, 100] metres, got {d}")
-    room["t60"] = ck.number(room["t60"], "room.t60", lo=0, hi=3.0)
-
-    arr = sc["array"]
-    if not isinstance(arr["name"], str) or not arr["name"]:
-        ck.fail("array.name", f"expected a built-in name or a JSON path, got {_show(arr['name'])}")
-    if not isinstance(arr["hrir"], bool):
-        ck.fail("array.hrir", f"expected true or false, got {_show(arr['hrir'])}")
-    arr["position"] = ck.vector(arr["position"], "array.position")
-    _inside(ck, arr["position"], room["dims"], "array.position")
-    arr["yaw_deg"] = ck.number(arr["yaw_deg"], "array.yaw_deg", lo=-360, hi=360)
-
-    cam = sc["camera"]
-    cam["hfov_deg"] = ck.number(cam["hfov_deg"], "camera.hfov_deg", lo=10, hi=170)
-    cam["width"] = ck.integer(cam["width"], "camera.width", lo=16, hi=10000)
-    cam["height"] = ck.integer(cam["height"], "camera.height", lo=16, hi=10000)
-    if cam["position"] is not None:
-        cam["position"] = ck.vector(cam["position"], "camera.position")
-        _inside(ck, cam["position"], room["dims"], "camera.position")
-    if cam["yaw_deg"] is not None:
-        cam["yaw_deg"] = ck.number(cam["yaw_deg"], "camera.yaw_deg", lo=-360, hi=360)
-    cam["pitch_deg"] = ck.number(cam["pitch_deg"], "camera.pitch_deg", lo=-89, hi=89)
-
-    sp = sc["speech"]
-    sp["mode"] = ck.choice(sp["mode"], "speech.mode", SPEECH_MODES)
-    if not isinstance(sp["utterances"], str) or not sp["utterances"]:
-        ck.fail(
-            "speech.utterances",
-            f"expected auto, shared, synthetic or a folder, got {_show(sp['utterances'])}",
-        )
-    sp["mean_turn"] = ck.number(sp["mean_turn"], "speech.mean_turn", lo=0.2, hi=60)
-    sp["mean_pause"] = ck.number(sp["mean_pause"], "speech.mean_pause", lo=0, hi=60)
-    sp["overlap_prob"] = ck.number(sp["overlap_prob"], "speech.overlap_prob", lo=0, hi=1)
-
-    nz = sc["noise"]
-    nz["diffuse_snr_db"] = ck.optional_number(
-        nz["diffuse_snr_db"], "noise.diffuse_snr_db", lo=-30, hi=100
-    )
-    nz["fan_snr_db"] = ck.optional_number(nz["fan_snr_db"], "noise.fan_snr_db", lo=-30, hi=100)
-
+    _check_room(ck, sc["room"])
+    _check_array(ck, sc["array"], sc["room"]["dims"])
+    _check_camera(ck, sc["camera"], sc["room"]["dims"])
+    _check_speech(ck, sc["speech"])
+    _check_noise(ck, sc["noise"])
     if "sensors" in raw:
-        ck.unknown(ck.mapping(raw["sensors"], "sensors"), SENSOR_DEFAULTS, "sensors")
-        sn = _merge(SENSOR_DEFAULTS, raw["sensors"])
-        sn["gain_mismatch_db"] = ck.number(
-            sn["gain_mismatch_db"], "sensors.gain_mismatch_db", lo=0, hi=20
-        )
-        sn["delay_mismatch_samples"] = ck.number(
-            sn["delay_mismatch_samples"], "sensors.delay_mismatch_samples", lo=0, hi=16
-        )
-        sn["self_noise_snr_db"] = ck.optional_number(
-            sn["self_noise_snr_db"], "sensors.self_noise_snr_db", lo=-30, hi=100
-        )
-        sc["sensors"] = sn
-
-    det = sc["detector"]
-    for key in ("miss_rate", "occlusion_threshold"):
-        det[key] = ck.number(det[key], f"detector.{key}", lo=0, hi=1)
-    for key in ("false_alarm_rate", "centre_noise", "size_noise", "appearance_noise"):
-        det[key] = ck.number(det[key], f"detector.{key}", lo=0, hi=100)
-    det["appearance_dim"] = ck.integer(det["appearance_dim"], "detector.appearance_dim", lo=2)
-
+        sc["sensors"] = _check_sensors(ck, raw["sensors"])
+    _check_detector(ck, sc["detector"])
     sc["render"]["step_m"] = ck.number(sc["render"]["step_m"], "render.step_m", lo=0.005, hi=1.0)
 
-    people_raw = raw.get("people")
-    if not isinstance(people_raw, list) or not people_raw:
-        ck.fail("people", f"expected a non-empty list of people, got {_show(people_raw)}")
-    people = []
-    seen: set[int] = set()
-    for i, person in enumerate(people_raw):
-        people.append(_validate_person(ck, person, i, sc))
-        pid = people[-1]["id"]
-        if pid in seen:
-            ck.fail(f"people[{i}].id", f"duplicate id {pid}")
-        seen.add(pid)
-    if sp["mode"] == "vad" and not any(p["motion"]["type"] == "azimuth-track" for p in people):
-        ck.fail("speech.mode", "'vad' needs at least one person with an azimuth-track motion")
-    sc["people"] = people
+    sc["people"] = _check_people(ck, raw.get("people"), sc)
     return sc
 
 

@@ -12,10 +12,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import soundfile as sf
 import yaml
 
 from avtrack.errors import InputError
+from avtrack.io.base import read_audio_file
 from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData, read_mot
 from avtrack.io.scenario import validate_scenario
@@ -87,12 +87,7 @@ def load_scene(scene_dir: str | Path) -> SceneInputs:
             raise InputError("contains NaN or infinite values", d / "appearance.npy")
         app = app.astype(float)
     wav = d / "audio.wav"
-    if not wav.is_file():
-        raise InputError("audio.wav not found", wav)
-    try:
-        audio, fs = sf.read(wav, always_2d=True)
-    except (RuntimeError, sf.LibsndfileError) as exc:
-        raise InputError(f"cannot read audio: {exc}", wav) from None
+    audio, fs = read_audio_file(wav, missing="audio.wav not found")
     audio = audio.T
     if audio.shape[1] == 0:
         raise InputError("audio.wav is empty", wav)

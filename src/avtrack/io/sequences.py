@@ -88,6 +88,62 @@ def _image_dir_name(seqinfo: Path) -> str:
     return parser["Sequence"].get("imDir", "img1")
 
 
+def _check_size_arguments(
+    image_size: tuple[int, int] | None, frame_rate: float | None
+) -> tuple[int, int] | None:
+    """Check :func:`load_mot_sequence`'s ``image_size`` and ``frame_rate``; the size as ints."""
+    if image_size is not None:
+        if len(image_size) != 2 or any(
+            isinstance(v, bool) or int(v) != v or v <= 0 for v in image_size
+        ):
+            raise ValueError(
+                f"image_size must be (width, height) positive integers, got {image_size!r}"
+            )
+        image_size = (int(image_size[0]), int(image_size[1]))
+    if frame_rate is not None and not frame_rate > 0:
+        raise ValueError(f"frame_rate must be > 0, got {frame_rate!r}")
+    return image_size
+
+
+def _image_size(
+    info: dict, image_size: tuple[int, int] | None, seqinfo_path: Path, notes: list[str]
+) -> tuple[int | None, int | None]:
+    """``(width, height)`` from ``seqinfo.ini`` or ``image_size`` (None if neither gives it),
+    noting where it came from in ``notes``."""
+    width = height = None
+    if "width" in info and "height" in info:
+        width, height = int(info["width"]), int(info["height"])
+        if image_size is not None and image_size != (width, height):
+            raise InputError(
+                f"imWidth x imHeight is {width} x {height} but image_size "
+                f"{image_size[0]} x {image_size[1]} was given",
+                seqinfo_path,
+            )
+        notes.append("image size from seqinfo.ini")
+    elif image_size is not None:
+        width, height = image_size
+        notes.append("image size from the image_size argument")
+    else:
+        where = "no seqinfo.ini" if not info else "seqinfo.ini has no imWidth/imHeight"
+        notes.append(f"image size unknown ({where}; pass image_size=(width, height))")
+    return width, height
+
+
+def _sequence_length(info: dict, image_dir: Path | None, last: int, notes: list[str]) -> int:
+    """The number of frames: from ``seqinfo.ini``, else the images, else the last annotated
+    frame, noting which in ``notes``."""
+    if "length" in info:
+        length = int(info["length"])
+        notes.append("length from seqinfo.ini")
+    elif image_dir is not None:
+        length = sum(1 for p in image_dir.iterdir() if p.suffix.lower() in IMAGE_EXTENSIONS)
+        notes.append(f"length from the images in {image_dir.name}/")
+    else:
+        length = last
+        notes.append("length from the last annotated frame")
+    return length
+
+
 def load_mot_sequence(
     folder: str | Path,
     *,
@@ -122,36 +178,12 @@ def load_mot_sequence(
         raise InputError(
             "sequence folder not found" if not folder.exists() else "not a folder", folder
         )
-    if image_size is not None:
-        if len(image_size) != 2 or any(
-            isinstance(v, bool) or int(v) != v or v <= 0 for v in image_size
-        ):
-            raise ValueError(
-                f"image_size must be (width, height) positive integers, got {image_size!r}"
-            )
-        image_size = (int(image_size[0]), int(image_size[1]))
-    if frame_rate is not None and not frame_rate > 0:
-        raise ValueError(f"frame_rate must be > 0, got {frame_rate!r}")
+    image_size = _check_size_arguments(image_size, frame_rate)
 
     seqinfo_path = folder / "seqinfo.ini"
     info = read_seqinfo(seqinfo_path) if seqinfo_path.is_file() else {}
-    notes = []
-    width = height = None
-    if "width" in info and "height" in info:
-        width, height = int(info["width"]), int(info["height"])
-        if image_size is not None and image_size != (width, height):
-            raise InputError(
-                f"imWidth x imHeight is {width} x {height} but image_size "
-                f"{image_size[0]} x {image_size[1]} was given",
-                seqinfo_path,
-            )
-        notes.append("image size from seqinfo.ini")
-    elif image_size is not None:
-        width, height = image_size
-        notes.append("image size from the image_size argument")
-    else:
-        where = "no seqinfo.ini" if not info else "seqinfo.ini has no imWidth/imHeight"
-        notes.append(f"image size unknown ({where}; pass image_size=(width, height))")
+    notes: list[str] = []
+    width, height = _image_size(info, image_size, seqinfo_path, notes)
     if "frame_rate" in info:
         if frame_rate is not None and float(frame_rate) != float(info["frame_rate"]):
             raise InputError(
@@ -167,15 +199,7 @@ def load_mot_sequence(
     images = folder / (_image_dir_name(seqinfo_path) if info else "img1")
     image_dir = images if images.is_dir() else None
     last = max(detections.n_frames, ground_truth.n_frames if ground_truth is not None else 0)
-    if "length" in info:
-        length = int(info["length"])
-        notes.append("length from seqinfo.ini")
-    elif image_dir is not None:
-        length = sum(1 for p in image_dir.iterdir() if p.suffix.lower() in IMAGE_EXTENSIONS)
-        notes.append(f"length from the images in {image_dir.name}/")
-    else:
-        length = last
-        notes.append("length from the last annotated frame")
+    length = _sequence_length(info, image_dir, last, notes)
     for data, path in ((detections, folder / "det" / "det.txt"), (ground_truth, gt_path)):
         if data is not None and data.n_frames > length:
             raise InputError(

@@ -237,6 +237,16 @@ def evaluate_mot(
         frame; a NaN ground-truth flag; (MOT16/17/20) missing or invalid gt classes; a result
         with class (column 8) > 1, which TrackEval also rejects.
     """
+    n_frames = _check_arguments(gt, res, benchmark, n_frames, threshold)
+    data = _trackeval_data(gt, res, benchmark, n_frames, similarity)
+    clear, ident, hota = _run_trackeval(data, float(threshold))
+    return _scores(clear, ident, hota, data)
+
+
+def _check_arguments(
+    gt: MOTData, res: MOTData, benchmark: str, n_frames: int | None, threshold: float
+) -> int:
+    """Check :func:`evaluate_mot`'s arguments; the number of frames to score."""
     for name, d in (("gt", gt), ("res", res)):
         if not isinstance(d, MOTData):
             raise TypeError(f"evaluate_mot: {name} must be MOTData, got {type(d).__name__}")
@@ -262,6 +272,18 @@ def evaluate_mot(
     if len(gt) and not np.all(np.isfinite(gt.scores)):
         raise ValueError("evaluate_mot: gt column 7 (consider flag) must be finite, found NaN/inf")
     _check_result_classes(res)
+    return n_frames
+
+
+def _trackeval_data(
+    gt: MOTData,
+    res: MOTData,
+    benchmark: str,
+    n_frames: int,
+    similarity: Callable[[np.ndarray, np.ndarray], np.ndarray] | None,
+) -> dict[str, Any]:
+    """TrackEval's per-sequence data: the benchmark's preprocessing applied frame by frame,
+    ids relabelled ``0..n-1``, and the similarities of the kept gt and result boxes."""
     # the class of each gt row, where the benchmark has the distractor preprocessing
     gt_classes = _gt_classes(gt) if benchmark != "MOT15" else None
     distractors = _DISTRACTORS + ((_NON_MOT_VEHICLE,) if benchmark == "MOT20" else ())
@@ -297,7 +319,13 @@ def evaluate_mot(
         "num_timesteps": n_frames,
         "seq": "sequence",
     }
-    clear, ident, hota = _run_trackeval(data, float(threshold))
+    return data
+
+
+def _scores(clear: dict, ident: dict, hota: dict, data: dict[str, Any]) -> MOTScores:
+    """The scores of TrackEval's CLEAR-MOT, identity and HOTA results, in percent."""
+    n_gt_ids = data["num_gt_ids"]
+    n_frames = data["num_timesteps"]
     return MOTScores(
         MOTA=100 * float(clear["MOTA"]),
         MOTP=100 * float(clear["MOTP"]),
@@ -318,6 +346,8 @@ def evaluate_mot(
         n_frames=n_frames,
         n_gt_dets=data["num_gt_dets"],
     )
+
+
 
 
 def _custom_similarity(fn, gb: np.ndarray, rb: np.ndarray) -> np.ndarray:

@@ -239,6 +239,19 @@ def ospa_t(
                          f"{order}")
     if not label_penalty >= 0:
         raise ValueError(f"ospa_t: label_penalty must be >= 0, got {label_penalty}")
+    ests, track_ids, est, tru = _track_arrays(estimates, truths)
+    # 1. Track-to-track assignment (Ristic et al. eq. 15).
+    labels = _assign_tracks(track_ids, est, tru, cutoff, order)
+    # 2. Per-frame labelled OSPA.
+    out = _labelled_ospa(ests, tru, labels, cutoff, order, label_penalty)
+    return OSPATResult(out, labels)
+
+
+def _track_arrays(
+    estimates: Sequence[tuple[np.ndarray, np.ndarray]], truths: Sequence[np.ndarray]
+) -> tuple[list[tuple[np.ndarray, np.ndarray]], list[int], np.ndarray, np.ndarray]:
+    """The estimates of each frame as arrays, the sorted estimated track ids, and the
+    estimated ``(I, T, d)`` and true ``(P, T, d)`` tracks, NaN where a track is absent."""
     n_frames = len(truths)
     truth = [np.asarray(y, dtype=float) for y in truths]
     n_true = max((y.shape[0] for y in truth), default=0)
@@ -262,7 +275,15 @@ def ospa_t(
     for t, y in enumerate(truth):
         if y.size:
             tru[: y.shape[0], t] = y
-    # 1. Track-to-track assignment (Ristic et al. eq. 15).
+    return ests, track_ids, est, tru
+
+
+def _assign_tracks(
+    track_ids: list[int], est: np.ndarray, tru: np.ndarray, cutoff: float, order: float
+) -> dict:
+    """The true track (row of ``tru``) assigned to each estimated track id, by the global
+    assignment of Ristic et al. eq. 15; unassigned tracks are left out."""
+    n_true = tru.shape[0]
     labels: dict = {}
     if len(track_ids) and n_true:
         e_on = np.all(np.isfinite(est), axis=2)  # (I, T)
@@ -285,7 +306,20 @@ def ospa_t(
         rows, cols = linear_sum_assignment(full)
         labels = {track_ids[r]: int(c) for r, c in zip(rows, cols, strict=True)
                   if r < n_est and c < n_true}
-    # 2. Per-frame labelled OSPA.
+    return labels
+
+
+def _labelled_ospa(
+    ests: list[tuple[np.ndarray, np.ndarray]],
+    tru: np.ndarray,
+    labels: dict,
+    cutoff: float,
+    order: float,
+    label_penalty: float,
+) -> np.ndarray:
+    """``(T, 3)`` per-frame labelled OSPA: distance, localization and cardinality parts
+    (Ristic et al. eq. 11)."""
+    n_frames = tru.shape[1]
     out = np.zeros((n_frames, 3))
     for t in range(n_frames):
         ids, pts = ests[t]
@@ -307,4 +341,4 @@ def ospa_t(
         loc_p = float(dc[r, c].sum()) / big
         card_p = cutoff**order * abs(n - m) / big
         out[t] = (loc_p + card_p) ** (1 / order), loc_p ** (1 / order), card_p ** (1 / order)
-    return OSPATResult(out, labels)
+    return out

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -245,30 +245,19 @@ class PHDConfig:
                 f"PHDConfig: ambiguity_ratio must be a finite number >= 1, got "
                 f"{self.ambiguity_ratio!r}"
             )
-        if not 0 < self.extraction_threshold < 1:
-            raise ValueError(
-                f"PHDConfig: extraction_threshold must be in (0, 1), got "
-                f"{self.extraction_threshold!r}"
-            )
-        if not -1 < self.motion_correlation < 1:
-            raise ValueError(
-                f"PHDConfig: motion_correlation must be in (-1, 1), got "
-                f"{self.motion_correlation!r}"
-            )
-        if not 0 <= self.faceless_velocity_decay <= 1:
-            raise ValueError(
-                f"PHDConfig: faceless_velocity_decay must be in [0, 1], got "
-                f"{self.faceless_velocity_decay!r}"
-            )
-        if self.flow_prior not in FLOW_PRIORS:
-            raise ValueError(
-                f"PHDConfig: flow_prior must be one of {FLOW_PRIORS}, got {self.flow_prior!r}"
-            )
-        if self.resample_rule not in RESAMPLE_RULES:
-            raise ValueError(
-                f"PHDConfig: resample_rule must be one of {RESAMPLE_RULES}, got "
-                f"{self.resample_rule!r}"
-            )
+        intervals: tuple[tuple[str, Callable[[float], bool], str], ...] = (
+            ("extraction_threshold", lambda v: 0 < v < 1, "(0, 1)"),
+            ("motion_correlation", lambda v: -1 < v < 1, "(-1, 1)"),
+            ("faceless_velocity_decay", lambda v: 0 <= v <= 1, "[0, 1]"),
+        )
+        for name, inside, interval in intervals:
+            v = getattr(self, name)
+            if not inside(v):
+                raise ValueError(f"PHDConfig: {name} must be in {interval}, got {v!r}")
+        for name, choices in (("flow_prior", FLOW_PRIORS), ("resample_rule", RESAMPLE_RULES)):
+            v = getattr(self, name)
+            if v not in choices:
+                raise ValueError(f"PHDConfig: {name} must be one of {choices}, got {v!r}")
         if self.relink_rule not in ("likelihood", "reach"):
             raise ValueError(
                 f"PHDConfig: relink_rule must be 'likelihood' or 'reach', got "

@@ -130,6 +130,76 @@ def affine_flow(
     return m, log_det_g[group]
 
 
+def _check_mixture_arguments(
+    m: np.ndarray,
+    prior_info: np.ndarray,
+    A: np.ndarray,
+    b: np.ndarray,
+    log_c: np.ndarray,
+    B: np.ndarray,
+    diffusion: float,
+    rng: np.random.Generator | None,
+    allowed: np.ndarray | None,
+) -> None:
+    """Check the shapes of :func:`mixture_flow`'s arguments against the states ``m`` (N, M)."""
+    n, dim = m.shape
+    r = A.shape[0]
+    if prior_info.shape != (n, dim, dim):
+        raise ValueError(
+            f"mixture_flow: prior_info must have shape ({n}, {dim}, {dim}), got {prior_info.shape}"
+        )
+    if b.shape != (r, dim) or log_c.shape != (r,) or B.shape[:2] != (r, dim):
+        raise ValueError("mixture_flow: A, b, log_c and B must describe the same components")
+    if diffusion > 0 and rng is None:
+        raise ValueError("mixture_flow: rng is required when diffusion > 0")
+    if allowed is not None and np.shape(allowed) != (n, r):
+        raise ValueError(
+            f"mixture_flow: allowed must have shape ({n}, {r}), got {np.shape(allowed)}"
+        )
+
+
+def _responsibilities(
+    Am: np.ndarray,
+    m: np.ndarray,
+    b: np.ndarray,
+    log_c: np.ndarray,
+    log_floor: float,
+    allowed: np.ndarray | None,
+) -> np.ndarray:
+    """``(N, R)`` responsibilities of the mixture's components for each particle ``m`` (N, M),
+    the floor taking the rest; ``Am`` (N, R, M) holds ``A_r m``."""
+    log_h = log_c - 0.5 * np.einsum("nri,ni->nr", Am, m) + m @ b.T
+    if allowed is not None:
+        log_h = np.where(allowed, log_h, -np.inf)
+    top = np.maximum(log_h.max(axis=1), log_floor)
+    top = np.where(np.isfinite(top), top, 0.0)
+    resp = np.exp(log_h - top[:, None])  # responsibilities pi_r of the mixture
+    den = resp.sum(axis=1) + np.exp(log_floor - top)
+    resp /= np.where(den > 0, den, 1.0)[:, None]
+    return resp
+
+
+def _exact_jacobian(
+    A: np.ndarray,
+    b: np.ndarray,
+    Am: np.ndarray,
+    resp: np.ndarray,
+    grad: np.ndarray,
+    A_bar: np.ndarray,
+    S: np.ndarray,
+    f: np.ndarray,
+    lam_mid: float,
+) -> np.ndarray:
+    """``(N, M, M)`` exact derivative of the flow ``f = S g`` in ``m`` (see
+    :func:`mixture_flow`'s ``exact_jacobian``)."""
+    g_r = b[None] - Am  # (N, R, M)
+    dev = g_r - grad[:, None, :]
+    C = np.einsum("nr,nri,nrj->nij", resp, g_r, dev)
+    Af = np.einsum("rij,nj->nri", A, f)
+    D = np.einsum("nr,nri,nrj->nij", resp, Af, dev)
+    return S @ (C - A_bar - lam_mid * D)
+
+
 def mixture_flow(
     states: np.ndarray,
     prior_info: np.ndarray,
@@ -182,18 +252,7 @@ def mixture_flow(
     m = np.array(states, dtype=float, copy=True)
     n, dim = m.shape
     r = A.shape[0]
-    if prior_info.shape != (n, dim, dim):
-        raise ValueError(
-            f"mixture_flow: prior_info must have shape ({n}, {dim}, {dim}), got {prior_info.shape}"
-        )
-    if b.shape != (r, dim) or log_c.shape != (r,) or B.shape[:2] != (r, dim):
-        raise ValueError("mixture_flow: A, b, log_c and B must describe the same components")
-    if diffusion > 0 and rng is None:
-        raise ValueError("mixture_flow: rng is required when diffusion > 0")
-    if allowed is not None and np.shape(allowed) != (n, r):
-        raise ValueError(
-            f"mixture_flow: allowed must have shape ({n}, {r}), got {np.shape(allowed)}"
-        )
+    _check_mixture_arguments(m, prior_info, A, b, log_c, B, diffusion, rng, allowed)
     log_det = np.zeros(n)
     if r == 0:
         return m, log_det
@@ -203,14 +262,7 @@ def mixture_flow(
     for dl in steps:
         lam_mid = lam + dl / 2
         Am = np.einsum("rij,nj->nri", A, m)  # (N, R, M)
-        log_h = log_c - 0.5 * np.einsum("nri,ni->nr", Am, m) + m @ b.T
-        if allowed is not None:
-            log_h = np.where(allowed, log_h, -np.inf)
-        top = np.maximum(log_h.max(axis=1), log_floor)
-        top = np.where(np.isfinite(top), top, 0.0)
-        resp = np.exp(log_h - top[:, None])  # responsibilities pi_r of the mixture
-        den = resp.sum(axis=1) + np.exp(log_floor - top)
-        resp /= np.where(den > 0, den, 1.0)[:, None]
+        resp = _responsibilities(Am, m, b, log_c, log_floor, allowed)
         grad = np.einsum("nr,nri->ni", resp, b[None] - Am)  # grad log h = sum_r pi_r (b_r - A_r m)
         A_bar = np.einsum("nr,rij->nij", resp, A)  # -grad^2 log h (Gauss-Newton)
         S = np.linalg.inv(prior_info + lam_mid * A_bar)  # eq. 9
@@ -222,12 +274,7 @@ def mixture_flow(
             eps = rng.standard_normal((n, r * k))
             m += diffusion * np.sqrt(dl) * np.einsum("nik,nk->ni", SB, eps)  # eq. 7: v w
         if exact_jacobian:
-            g_r = b[None] - Am  # (N, R, M)
-            dev = g_r - grad[:, None, :]
-            C = np.einsum("nr,nri,nrj->nij", resp, g_r, dev)
-            Af = np.einsum("rij,nj->nri", A, f)
-            D = np.einsum("nr,nri,nrj->nij", resp, Af, dev)
-            jac = S @ (C - A_bar - lam_mid * D)
+            jac = _exact_jacobian(A, b, Am, resp, grad, A_bar, S, f, lam_mid)
         else:
             jac = -S @ A_bar
         log_det += _slogdet_abs(eye + dl * jac)  # det(I + dl grad f)

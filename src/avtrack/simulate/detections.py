@@ -209,6 +209,123 @@ def _unit(x: np.ndarray) -> np.ndarray:
     return x / np.linalg.norm(x, axis=-1, keepdims=True)
 
 
+def _check_inputs(
+    camera: PinholeCamera,
+    head_positions: np.ndarray,
+    rng: np.random.Generator,
+    config: DetectorConfig | None,
+) -> tuple[DetectorConfig, np.ndarray]:
+    """Check :func:`simulate_detections`'s arguments; the configuration and the head
+    positions ``(T, P, 3)`` as floats."""
+    if not isinstance(camera, PinholeCamera):
+        raise TypeError(
+            f"simulate_detections: camera must be a PinholeCamera, got {type(camera).__name__}"
+        )
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError(
+            f"simulate_detections: rng must be a numpy.random.Generator, got {type(rng).__name__}"
+        )
+    cfg = DetectorConfig() if config is None else config
+    if not isinstance(cfg, DetectorConfig):
+        raise TypeError(
+            f"simulate_detections: config must be a DetectorConfig, got {type(cfg).__name__}"
+        )
+    pos = np.asarray(head_positions, dtype=float)
+    if pos.ndim != 3 or pos.shape[2] != 3:
+        raise ValueError(
+            f"simulate_detections: head_positions must have shape (T, P, 3), got {pos.shape}"
+        )
+    if np.any(np.isinf(pos)):
+        raise ValueError("simulate_detections: head_positions must be finite or NaN (absent)")
+    return cfg, pos
+
+
+def _head_boxes(
+    camera: PinholeCamera, pos: np.ndarray, cfg: DetectorConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The head boxes ``(T, P, 4)`` (NaN outside the image), whether each is in the image
+    ``(T, P)``, and the fraction of each hidden by nearer heads ``(T, P)``."""
+    n_t, n_p, _ = pos.shape
+    boxes = camera.head_box(pos.reshape(-1, 3), cfg.head_size).reshape(n_t, n_p, 4)
+    _, depth = camera.project(pos.reshape(-1, 3))
+    depth = depth.reshape(n_t, n_p)
+    seen = np.isfinite(boxes[:, :, 0])  # (T, P)
+    occluded = np.zeros((n_t, n_p))
+    for t in np.flatnonzero(seen.sum(axis=1) > 1):
+        idx = np.flatnonzero(seen[t])
+        occluded[t, idx] = occluded_fraction(boxes[t, idx], depth[t, idx])
+    return boxes, seen, occluded
+
+
+def _ground_truth(boxes: np.ndarray, seen: np.ndarray, occluded: np.ndarray) -> MOTData:
+    """Every (frame, person) with a box in the image, ordered by frame then id; column 8 is
+    the class (1), column 9 the visible fraction."""
+    gt_t, gt_p = np.nonzero(seen)
+    gt_vis = 1.0 - occluded[gt_t, gt_p]
+    return MOTData(
+        frames=gt_t + 1,
+        ids=gt_p + 1,
+        boxes=boxes[gt_t, gt_p],
+        scores=np.ones(gt_t.size),
+        extra=np.column_stack([np.ones(gt_t.size), gt_vis]),
+    )
+
+
+def _true_detections(
+    camera: PinholeCamera,
+    boxes: np.ndarray,
+    seen: np.ndarray,
+    occluded: np.ndarray,
+    signatures: np.ndarray,
+    cfg: DetectorConfig,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The detections of the persons: frame index ``(K,)``, person index ``(K,)``, noisy
+    boxes ``(K, 4)``, scores ``(K,)`` and appearance features ``(K, D)``."""
+    n_t, n_p, dim = boxes.shape[0], boxes.shape[1], signatures.shape[1]
+    # True detections. Draws are made for every (frame, person) so that they do not depend on
+    # which people happen to be visible.
+    u_miss = rng.random((n_t, n_p))
+    e_centre = rng.standard_normal((n_t, n_p, 2))
+    e_size = rng.standard_normal((n_t, n_p, 2))
+    e_score = rng.standard_normal((n_t, n_p))
+    e_app = rng.standard_normal((n_t, n_p, dim))
+    hit = seen & (occluded <= cfg.occlusion_threshold) & (u_miss >= cfg.miss_rate)
+    ht, hp = np.nonzero(hit)
+    b = boxes[ht, hp]
+    size = b[:, 2:]
+    new_size = size * np.exp(cfg.size_noise * e_size[ht, hp])  # s' = s exp(ε_s)
+    shift = cfg.centre_noise * size * e_centre[ht, hp]  # ε_c ~ N(0, (σ_c s)^2)
+    corner = b[:, :2] + shift - (new_size - size) / 2  # keeps the centre at c + ε_c
+    det_boxes = _clip_boxes(np.column_stack([corner, new_size]), camera)
+    keep = (det_boxes[:, 2] > 0) & (det_boxes[:, 3] > 0)
+    ht, hp, det_boxes = ht[keep], hp[keep], det_boxes[keep]
+    true_scores = cfg.score_mean[0] + cfg.score_std[0] * e_score[ht, hp]
+    noise = cfg.appearance_noise * e_app[ht, hp] / math.sqrt(dim)
+    true_app = _unit(signatures[hp] + noise)  # normalise(a_p + σ n / sqrt(D))
+    return ht, hp, det_boxes, true_scores, true_app
+
+
+def _false_alarms(
+    camera: PinholeCamera, n_t: int, cfg: DetectorConfig, rng: np.random.Generator
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Poisson false alarms: frame index ``(K,)``, boxes ``(K, 4)`` of a head's size at a
+    random depth, scores ``(K,)`` and random appearance features ``(K, D)``."""
+    dim = cfg.appearance_dim
+    n_fa = rng.poisson(cfg.false_alarm_rate, n_t)
+    fa_t = np.repeat(np.arange(n_t), n_fa)
+    k = fa_t.size
+    fa_depth = rng.uniform(*cfg.false_alarm_depth, k)
+    fa_w = np.minimum(camera.fx * cfg.head_size[0] / fa_depth, camera.width)
+    fa_h = np.minimum(camera.fy * cfg.head_size[1] / fa_depth, camera.height)
+    fa_left = rng.random(k) * (camera.width - fa_w)
+    fa_top = rng.random(k) * (camera.height - fa_h)
+    fa_boxes = np.column_stack([fa_left, fa_top, fa_w, fa_h])
+    fa_scores = cfg.score_mean[1] + cfg.score_std[1] * rng.standard_normal(k)
+    fa_app = _unit(rng.standard_normal((k, dim)))
+    return fa_t, fa_boxes, fa_scores, fa_app
+
+
 def simulate_detections(
     camera: PinholeCamera,
     head_positions: np.ndarray,
@@ -232,84 +349,19 @@ def simulate_detections(
     -------
     SimulatedDetections
     """
-    if not isinstance(camera, PinholeCamera):
-        raise TypeError(
-            f"simulate_detections: camera must be a PinholeCamera, got {type(camera).__name__}"
-        )
-    if not isinstance(rng, np.random.Generator):
-        raise TypeError(
-            f"simulate_detections: rng must be a numpy.random.Generator, got {type(rng).__name__}"
-        )
-    cfg = DetectorConfig() if config is None else config
-    if not isinstance(cfg, DetectorConfig):
-        raise TypeError(
-            f"simulate_detections: config must be a DetectorConfig, got {type(cfg).__name__}"
-        )
-    pos = np.asarray(head_positions, dtype=float)
-    if pos.ndim != 3 or pos.shape[2] != 3:
-        raise ValueError(
-            f"simulate_detections: head_positions must have shape (T, P, 3), got {pos.shape}"
-        )
-    if np.any(np.isinf(pos)):
-        raise ValueError("simulate_detections: head_positions must be finite or NaN (absent)")
+    cfg, pos = _check_inputs(camera, head_positions, rng, config)
     n_t, n_p, _ = pos.shape
     dim = cfg.appearance_dim
 
     signatures = _unit(rng.standard_normal((n_p, dim)))  # a_p, one per person
 
-    boxes = camera.head_box(pos.reshape(-1, 3), cfg.head_size).reshape(n_t, n_p, 4)
-    _, depth = camera.project(pos.reshape(-1, 3))
-    depth = depth.reshape(n_t, n_p)
-    seen = np.isfinite(boxes[:, :, 0])  # (T, P)
-    occluded = np.zeros((n_t, n_p))
-    for t in np.flatnonzero(seen.sum(axis=1) > 1):
-        idx = np.flatnonzero(seen[t])
-        occluded[t, idx] = occluded_fraction(boxes[t, idx], depth[t, idx])
-
-    # Ground truth: every (frame, person) with a box in the image, ordered by frame then id.
-    gt_t, gt_p = np.nonzero(seen)
-    gt_vis = 1.0 - occluded[gt_t, gt_p]
-    gt = MOTData(
-        frames=gt_t + 1,
-        ids=gt_p + 1,
-        boxes=boxes[gt_t, gt_p],
-        scores=np.ones(gt_t.size),
-        extra=np.column_stack([np.ones(gt_t.size), gt_vis]),
+    boxes, seen, occluded = _head_boxes(camera, pos, cfg)
+    gt = _ground_truth(boxes, seen, occluded)
+    ht, hp, det_boxes, true_scores, true_app = _true_detections(
+        camera, boxes, seen, occluded, signatures, cfg, rng
     )
-
-    # True detections. Draws are made for every (frame, person) so that they do not depend on
-    # which people happen to be visible.
-    u_miss = rng.random((n_t, n_p))
-    e_centre = rng.standard_normal((n_t, n_p, 2))
-    e_size = rng.standard_normal((n_t, n_p, 2))
-    e_score = rng.standard_normal((n_t, n_p))
-    e_app = rng.standard_normal((n_t, n_p, dim))
-    hit = seen & (occluded <= cfg.occlusion_threshold) & (u_miss >= cfg.miss_rate)
-    ht, hp = np.nonzero(hit)
-    b = boxes[ht, hp]
-    size = b[:, 2:]
-    new_size = size * np.exp(cfg.size_noise * e_size[ht, hp])  # s' = s exp(ε_s)
-    shift = cfg.centre_noise * size * e_centre[ht, hp]  # ε_c ~ N(0, (σ_c s)^2)
-    corner = b[:, :2] + shift - (new_size - size) / 2  # keeps the centre at c + ε_c
-    det_boxes = _clip_boxes(np.column_stack([corner, new_size]), camera)
-    keep = (det_boxes[:, 2] > 0) & (det_boxes[:, 3] > 0)
-    ht, hp, det_boxes = ht[keep], hp[keep], det_boxes[keep]
-    true_scores = cfg.score_mean[0] + cfg.score_std[0] * e_score[ht, hp]
-    noise = cfg.appearance_noise * e_app[ht, hp] / math.sqrt(dim)
-    true_app = _unit(signatures[hp] + noise)  # normalise(a_p + σ n / sqrt(D))
-
-    # False alarms.
-    n_fa = rng.poisson(cfg.false_alarm_rate, n_t)
-    fa_t = np.repeat(np.arange(n_t), n_fa)
+    fa_t, fa_boxes, fa_scores, fa_app = _false_alarms(camera, n_t, cfg, rng)
     k = fa_t.size
-    fa_depth = rng.uniform(*cfg.false_alarm_depth, k)
-    fa_w = np.minimum(camera.fx * cfg.head_size[0] / fa_depth, camera.width)
-    fa_h = np.minimum(camera.fy * cfg.head_size[1] / fa_depth, camera.height)
-    fa_left = rng.random(k) * (camera.width - fa_w)
-    fa_top = rng.random(k) * (camera.height - fa_h)
-    fa_boxes = np.column_stack([fa_left, fa_top, fa_w, fa_h])
-    fa_scores = cfg.score_mean[1] + cfg.score_std[1] * rng.standard_normal(k)
-    fa_app = _unit(rng.standard_normal((k, dim)))
 
     frames = np.concatenate([ht, fa_t]) + 1
     scores = np.clip(np.concatenate([true_scores, fa_scores]), 1e-3, 1.0)

@@ -94,6 +94,41 @@ def meeting(seed: int, duration: float) -> dict:
     }
 
 
+def _track_motion(
+    track: str,
+    column: int,
+    rng: np.random.Generator,
+    radius: tuple[float, float],
+    height: tuple[float, float],
+    start: float,
+) -> dict:
+    """An ``azimuth-track`` motion following column ``column`` of a recorded track from
+    ``start`` seconds, at a radius and height drawn uniformly in the given ranges (metres)."""
+    return {
+        "type": "azimuth-track",
+        "track": track,
+        "column": column,
+        "radius": round(float(rng.uniform(*radius)), 3),
+        "height": round(float(rng.uniform(*height)), 3),
+        "start_s": round(start, 3),
+    }
+
+
+def _nao_in_room(
+    name: str, seed: int, duration: float, dims: list[float], t60: float, centre: list[float]
+) -> dict:
+    """The scenario fields of a NAO head (4 microphones with HRIRs, its 60.9-degree camera)
+    at ``centre`` in a room of size ``dims`` and reverberation time ``t60``."""
+    return {
+        "name": name,
+        "duration": duration,
+        "seed": seed,
+        "room": {"dims": dims, "t60": t60},
+        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
+        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+    }
+
+
 def locata_like(seed: int, duration: float) -> dict:
     rng = np.random.default_rng([seed, 2])
     dims = [7.1, 9.8, 3.0]
@@ -102,24 +137,12 @@ def locata_like(seed: int, duration: float) -> dict:
     people = [
         {
             "id": col + 1,
-            "motion": {
-                "type": "azimuth-track",
-                "track": "locata",
-                "column": col,
-                "radius": round(float(rng.uniform(1.3, 2.2)), 3),
-                "height": round(float(rng.uniform(0.1, 0.3)), 3),
-                "start_s": round(start, 3),
-            },
+            "motion": _track_motion("locata", col, rng, (1.3, 2.2), (0.1, 0.3), start),
         }
         for col in (0, 1)
     ]
     return {
-        "name": "locata-like",
-        "duration": duration,
-        "seed": seed,
-        "room": {"dims": dims, "t60": 0.55},
-        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
-        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+        **_nao_in_room("locata-like", seed, duration, dims, 0.55, centre),
         "people": people,
         "speech": {"mode": "vad"},
         "noise": {"diffuse_snr_db": 30.0, "fan_snr_db": 15.0},
@@ -135,14 +158,7 @@ def kinovis_like(seed: int, duration: float) -> dict:
     people = []
     for pid in (1, 2, 3):
         if pid < 3:
-            motion = {
-                "type": "azimuth-track",
-                "track": "kinovis",
-                "column": pid - 1,
-                "radius": round(float(rng.uniform(1.5, 2.5)), 3),
-                "height": round(float(rng.uniform(0.05, 0.3)), 3),
-                "start_s": round(start, 3),
-            }
+            motion = _track_motion("kinovis", pid - 1, rng, (1.5, 2.5), (0.05, 0.3), start)
         else:
             motion = {
                 "type": "random-walk",
@@ -164,12 +180,7 @@ def kinovis_like(seed: int, duration: float) -> dict:
         present = present or [[0.0, round(float(duration), 3)]]
         people.append({"id": pid, "motion": motion, "present": present})
     return {
-        "name": "kinovis-like",
-        "duration": duration,
-        "seed": seed,
-        "room": {"dims": dims, "t60": 0.5},
-        "array": {"name": "nao4", "hrir": True, "position": centre, "yaw_deg": 0.0},
-        "camera": {"hfov_deg": 60.9, "width": 640, "height": 480},
+        **_nao_in_room("kinovis-like", seed, duration, dims, 0.5, centre),
         "people": people,
         "speech": {"mode": "turn-taking", "mean_turn": 2.0, "mean_pause": 0.8},
         "noise": {"diffuse_snr_db": 10.0, "fan_snr_db": 5.0},

@@ -42,8 +42,9 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.io.base import atomic_write
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData, write_mot
-from avtrack.robot.base import FaceObservations, HeadMotion
+from avtrack.robot.base import FaceObservations, HeadMotion, TrackedPeople
 from avtrack.robot.calibration import calibrate_head
 from avtrack.robot.head import HeadCalibration, RobotHead, nao_head, twist_exp
 from avtrack.robot.servo import (
@@ -53,7 +54,7 @@ from avtrack.robot.servo import (
     VisualServo,
     make_policy,
 )
-from avtrack.robot.stereo import StereoMatchConfig, stereo_faces
+from avtrack.robot.stereo import StereoMatchConfig, StereoRig, stereo_faces
 from avtrack.robot.tracker import RobotFrameTracks, RobotTracker, RobotTrackerConfig
 from avtrack.simulate.detections import DetectorConfig, simulate_detections
 from avtrack.simulate.trajectory import Trajectory, random_walk
@@ -497,6 +498,115 @@ def resolve_scenario(name: str) -> RobotScenario:
     return ROBOT_SCENARIOS[name]
 
 
+def _check_run_arguments(
+    scenario: str | RobotScenario, seed: int, duration_s: float | None
+) -> tuple[RobotScenario, float]:
+    """The scenario and the duration in seconds of a run, after checking the arguments."""
+    scen = resolve_scenario(scenario) if isinstance(scenario, str) else scenario
+    if not isinstance(scen, RobotScenario):
+        raise TypeError(
+            f"scenario must be a name or a RobotScenario, got {type(scenario).__name__}"
+        )
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    duration = scen.duration_s if duration_s is None else float(duration_s)
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration_s must be a positive number, got {duration_s!r}")
+    return scen, duration
+
+
+def _tracker_config(tracker_cfg: RobotTrackerConfig, compensation: bool) -> RobotTrackerConfig:
+    """The tracker's configuration with or without the control term :math:`C_{tn}`."""
+    if not compensation:
+        return replace(tracker_cfg, control="none")
+    if tracker_cfg.control == "none":
+        return replace(tracker_cfg, control="jacobian")
+    return tracker_cfg
+
+
+def _heads(cfg: RobotSimConfig, rng_cal: np.random.Generator) -> tuple[RobotHead, RobotHead]:
+    """The true head and the tracker's model of it (its calibration estimated or exact)."""
+    true_head = nao_head(baseline=cfg.baseline, max_speed=cfg.max_speed)
+    model_head = true_head
+    if cfg.calibration == "estimated":
+        cal = estimate_calibration(
+            true_head.calibration, rng_cal, cfg.chessboard_views, *cfg.chessboard_noise
+        )
+        model_head = replace(true_head, calibration=cal)
+    return true_head, model_head
+
+
+def _servo(head: RobotHead, scen: RobotScenario, cfg: RobotSimConfig) -> VisualServo:
+    """The visual servo of ``head`` with the scenario's target-choice policy."""
+    policy: ServoPolicy = (
+        JumpPolicy(cfg.jump_period_s) if scen.policy == "jump" else make_policy(scen.policy)
+    )
+    return VisualServo(head, policy, cfg.gain, cfg.fps)
+
+
+def _blurred_detector(cfg: RobotSimConfig, speed: float) -> DetectorConfig:
+    """The detector with more misses while the head turns at ``speed`` rad/s (motion blur)."""
+    detector = cfg.detector
+    if cfg.blur_speed is not None and speed > 0:  # motion blur: more misses
+        hit = (1 - detector.miss_rate) * math.exp(-speed / cfg.blur_speed)
+        detector = replace(detector, miss_rate=1.0 - hit)
+    return detector
+
+
+def _observe_faces(
+    cfg: RobotSimConfig,
+    rig: StereoRig,
+    cameras: tuple[PinholeCamera, PinholeCamera],
+    canon: np.ndarray,
+    speed: float,
+    rngs: tuple[np.random.Generator, np.random.Generator, np.random.Generator],
+    signatures: np.ndarray,
+) -> tuple[FaceObservations, MOTData]:
+    """One frame's stereo face observations, and the left camera's true boxes.
+
+    ``canon`` ``(1, P, 3)``: the heads in the canonical frame; ``rngs``: the left and right
+    detectors' and the appearance generators; ``signatures`` ``(P, D)``: the persons' looks.
+    """
+    rng_left, rng_right, rng_app = rngs
+    detector = _blurred_detector(cfg, speed)
+    left = simulate_detections(cameras[0], canon, rng_left, detector)
+    right = simulate_detections(cameras[1], canon, rng_right, detector)
+    app_l = _appearance(left.det_person, signatures, cfg.appearance_noise, rng_app)
+    app_r = _appearance(right.det_person, signatures, cfg.appearance_noise, rng_app)
+    faces = stereo_faces(
+        rig, left.detections.boxes, right.detections.boxes, app_l, app_r, cfg.stereo
+    )
+    return faces, left.gt
+
+
+def _servo_command(
+    servo: VisualServo, start_s: float, time_s: float, people: TrackedPeople, q: np.ndarray
+) -> ServoCommand:
+    """The servo's command at ``time_s``: none (target -1, zero velocity) before ``start_s``."""
+    if time_s < start_s - 1e-9:
+        return ServoCommand(-1, np.zeros(2))
+    return servo.command(time_s, people, q)
+
+
+def _target_distances(
+    rig: StereoRig, people: TrackedPeople, target_id: int, x_cam: np.ndarray
+) -> tuple[float, float]:
+    """Image distances of the servo's target from the image centre: estimated and true.
+
+    The true distance is that of the true head nearest the estimate (NaN if none is near).
+    """
+    k = int(np.flatnonzero(people.ids == target_id)[0])
+    est = people.positions[k]
+    uv = rig.project(est[None])[0]
+    dist = float(np.linalg.norm(uv - rig.centre))
+    true_dist = np.nan
+    p = _nearest_person(est, x_cam)
+    if p >= 0:
+        uv_true = rig.project(x_cam[p][None])[0]
+        true_dist = float(np.linalg.norm(uv_true - rig.centre))
+    return dist, true_dist
+
+
 def simulate_robot(
     scenario: str | RobotScenario,
     seed: int = 0,
@@ -524,32 +634,13 @@ def simulate_robot(
     -------
     RobotSimResult
     """
-    scen = resolve_scenario(scenario) if isinstance(scenario, str) else scenario
-    if not isinstance(scen, RobotScenario):
-        raise TypeError(
-            f"scenario must be a name or a RobotScenario, got {type(scenario).__name__}"
-        )
-    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
-        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
+    scen, duration = _check_run_arguments(scenario, seed, duration_s)
     cfg = config or RobotSimConfig()
-    duration = scen.duration_s if duration_s is None else float(duration_s)
-    if not (math.isfinite(duration) and duration > 0):
-        raise ValueError(f"duration_s must be a positive number, got {duration_s!r}")
-    tracker_cfg = cfg.tracker
-    if not compensation:
-        tracker_cfg = replace(tracker_cfg, control="none")
-    elif tracker_cfg.control == "none":
-        tracker_cfg = replace(tracker_cfg, control="jacobian")
+    tracker_cfg = _tracker_config(cfg.tracker, compensation)
 
     streams = [np.random.default_rng(s) for s in np.random.SeedSequence(int(seed)).spawn(6)]
     rng_people, rng_left, rng_right, rng_app, rng_motor, rng_cal = streams
-    true_head = nao_head(baseline=cfg.baseline, max_speed=cfg.max_speed)
-    model_head = true_head
-    if cfg.calibration == "estimated":
-        cal = estimate_calibration(
-            true_head.calibration, rng_cal, cfg.chessboard_views, *cfg.chessboard_noise
-        )
-        model_head = replace(true_head, calibration=cal)
+    true_head, model_head = _heads(cfg, rng_cal)
     rig = true_head.rig
     left_cam, right_cam = rig.pinhole_cameras()
 
@@ -562,10 +653,7 @@ def simulate_robot(
     signatures = _unit(rng_app.standard_normal((n_p, cfg.appearance_dim)))
 
     tracker = RobotTracker(model_head, tracker_cfg, cfg.fps)
-    policy: ServoPolicy = (
-        JumpPolicy(cfg.jump_period_s) if scen.policy == "jump" else make_policy(scen.policy)
-    )
-    servo = VisualServo(model_head, policy, cfg.gain, cfg.fps)
+    servo = _servo(model_head, scen, cfg)
 
     q = np.zeros(2)
     speed = 0.0  # angular speed of the head during the last frame interval, rad/s
@@ -585,42 +673,25 @@ def simulate_robot(
         x_cam = home[t] @ g[:3, :3].T + g[:3, 3]  # (P, 3), NaN rows stay NaN
         truth[t], angles[t] = x_cam, q
         canon = rig.to_canonical(x_cam)[None]
-        detector = cfg.detector
-        if cfg.blur_speed is not None and speed > 0:  # motion blur: more misses
-            hit = (1 - detector.miss_rate) * math.exp(-speed / cfg.blur_speed)
-            detector = replace(detector, miss_rate=1.0 - hit)
-        left = simulate_detections(left_cam, canon, rng_left, detector)
-        right = simulate_detections(right_cam, canon, rng_right, detector)
-        app_l = _appearance(left.det_person, signatures, cfg.appearance_noise, rng_app)
-        app_r = _appearance(right.det_person, signatures, cfg.appearance_noise, rng_app)
-        faces = stereo_faces(
-            rig, left.detections.boxes, right.detections.boxes, app_l, app_r, cfg.stereo
+        faces, left_gt = _observe_faces(
+            cfg, rig, (left_cam, right_cam), canon, speed, (rng_left, rng_right, rng_app),
+            signatures,
         )
         faces_log.append(faces)
         gt_rows.append(
-            _frame_gt(left.gt, x_cam, rig, cfg.detector.head_size, t + 1, cfg.stereo.border)
+            _frame_gt(left_gt, x_cam, rig, cfg.detector.head_size, t + 1, cfg.stereo.border)
         )
 
         t0 = time.perf_counter()
         out = tracker.step(faces, motion)
         people_now = tracker.people()
-        if t * dt < cfg.servo_start_s - 1e-9:
-            cmd = ServoCommand(-1, np.zeros(2))
-        else:
-            cmd = servo.command(t * dt, people_now, q)
+        cmd = _servo_command(servo, cfg.servo_start_s, t * dt, people_now, q)
         step_times[t] = time.perf_counter() - t0
         out_frames.append(out)
 
         commands[t], targets[t] = cmd.velocity, cmd.target_id
         if cmd.target_id >= 0:
-            k = int(np.flatnonzero(people_now.ids == cmd.target_id)[0])
-            est = people_now.positions[k]
-            uv = rig.project(est[None])[0]
-            dist[t] = float(np.linalg.norm(uv - rig.centre))
-            p = _nearest_person(est, x_cam)
-            if p >= 0:
-                uv_true = rig.project(x_cam[p][None])[0]
-                true_dist[t] = float(np.linalg.norm(uv_true - rig.centre))
+            dist[t], true_dist[t] = _target_distances(rig, people_now, cmd.target_id, x_cam)
         motion = HeadMotion(q, cmd.velocity)
         executed = cmd.velocity * (1.0 + cfg.motor_noise * rng_motor.standard_normal(2))
         q_next = true_head.clip_angles(q + executed * dt)

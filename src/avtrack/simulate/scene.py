@@ -286,6 +286,84 @@ def scene_schedule(
     return _clip_to_presence(segs, trajectories, ids)
 
 
+def _dry_speech(
+    ids: np.ndarray,
+    segments: list[SpeechSegment],
+    utterances,
+    fs: int,
+    duration: float,
+    rngs: dict[str, np.random.Generator],
+) -> np.ndarray:
+    """Dry speech per person ``(P, n_samples)``: silence outside their segments, levels within
+    +-3 dB."""
+    local = [
+        SpeechSegment(int(np.flatnonzero(ids == s.speaker)[0]) + 1, s.start, s.end, s.utterance)
+        for s in segments
+    ]
+    dry = fill_segments(local, utterances, fs, len(ids), duration, rngs["material"])
+    return dry * 10 ** (rngs["levels"].uniform(-3, 3, size=(len(ids), 1)) / 20)
+
+
+def _render_speech(
+    room: acoustics.Room,
+    array,
+    pose: acoustics.ArrayPose,
+    dry: np.ndarray,
+    trajectories: list,
+    talkers: list[int],
+    n_samples: int,
+    step_m: float,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The reverberant speech at the microphones ``(n_mics, n_samples)`` and each person's
+    image at every microphone ``(P, n_mics, n_samples)`` (zero for those who never talk)."""
+    sources = [
+        acoustics.MovingSource(dry[k], trajectories[k].times, trajectories[k].positions)
+        for k in talkers
+    ]
+    images = np.zeros((len(dry), array.n_mics, n_samples))  # each person at every microphone
+    if sources:
+        speech, talker_images = acoustics.render(
+            room,
+            array,
+            pose,
+            sources,
+            step_m=step_m,
+            n_samples=n_samples,
+            rng=rng,
+            return_images=True,
+        )
+        images[talkers] = talker_images[:, :, :n_samples]
+    else:
+        speech = np.zeros((array.n_mics, n_samples))
+    return speech[:, :n_samples], images
+
+
+def _add_noise(
+    audio: np.ndarray,
+    noise_cfg: dict,
+    room: acoustics.Room,
+    array,
+    pose: acoustics.ArrayPose,
+    speech: np.ndarray,
+    active: np.ndarray,
+    rng: np.random.Generator,
+) -> None:
+    """Add the diffuse and fan noise, each at its SNR to ``speech``, to ``audio``
+    ``(n_mics, n_samples)`` in place."""
+    n_samples = speech.shape[1]
+    fs = room.fs
+    for kind in ("diffuse", "fan"):
+        snr = noise_cfg[f"{kind}_snr_db"]
+        if snr is None:
+            continue
+        if kind == "diffuse":
+            noise = acoustics.diffuse_noise(array, n_samples, fs, rng)
+        else:
+            noise = acoustics.fan_noise_image(room, array, pose, n_samples, fs, rng)
+        audio += _scaled_noise(speech, noise, snr, active)
+
+
 def simulate_scene(
     scenario: dict, data_dir: Path | None = None, scenario_path: str | Path | None = None
 ) -> Scene:
@@ -315,51 +393,20 @@ def simulate_scene(
     resolved, utterances = _utterances(scenario, fs, data_dir)
     scenario["speech"]["utterances"] = resolved
 
-    # dry speech per person (silence outside their segments), levels within +-3 dB
-    local = [
-        SpeechSegment(int(np.flatnonzero(ids == s.speaker)[0]) + 1, s.start, s.end, s.utterance)
-        for s in segments
-    ]
-    dry = fill_segments(local, utterances, fs, len(ids), duration, rngs["material"])
-    dry = dry * 10 ** (rngs["levels"].uniform(-3, 3, size=(len(ids), 1)) / 20)
+    dry = _dry_speech(ids, segments, utterances, fs, duration, rngs)
 
     room = acoustics.Room(np.asarray(scenario["room"]["dims"]), scenario["room"]["t60"], fs)
     pose = acoustics.ArrayPose(
         np.asarray(scenario["array"]["position"]), scenario["array"]["yaw_deg"]
     )
     talkers = [k for k in range(len(ids)) if np.any(dry[k])]
-    sources = [
-        acoustics.MovingSource(dry[k], trajectories[k].times, trajectories[k].positions)
-        for k in talkers
-    ]
-    images = np.zeros((len(ids), array.n_mics, n_samples))  # each person at every microphone
-    if sources:
-        speech, talker_images = acoustics.render(
-            room,
-            array,
-            pose,
-            sources,
-            step_m=scenario["render"]["step_m"],
-            n_samples=n_samples,
-            rng=rngs["tails"],
-            return_images=True,
-        )
-        images[talkers] = talker_images[:, :, :n_samples]
-    else:
-        speech = np.zeros((array.n_mics, n_samples))
-    speech = speech[:, :n_samples]
-    audio = speech.copy()
-    noise_cfg = scenario["noise"]
+    speech, images = _render_speech(
+        room, array, pose, dry, trajectories, talkers, n_samples, scenario["render"]["step_m"],
+        rngs["tails"],
+    )
     active = np.any(dry != 0, axis=0)
-    for kind in ("diffuse", "fan"):
-        snr = noise_cfg[f"{kind}_snr_db"]
-        if snr is None:
-            continue
-        if kind == "diffuse":
-            noise = acoustics.diffuse_noise(array, n_samples, fs, rngs["noise"])
-        else:
-            noise = acoustics.fan_noise_image(room, array, pose, n_samples, fs, rngs["noise"])
-        audio += _scaled_noise(speech, noise, snr, active)
+    audio = speech.copy()
+    _add_noise(audio, scenario["noise"], room, array, pose, speech, active, rngs["noise"])
     draw = None
     references = images[:, 0, :].copy()
     if "sensors" in scenario:

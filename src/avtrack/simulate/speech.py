@@ -71,63 +71,15 @@ def _as_activity(
     return a
 
 
-def turn_taking_schedule(
-    n_speakers: int,
-    duration: float,
-    rng: np.random.Generator,
-    mean_turn: float = 2.5,
-    mean_pause: float = 0.6,
-    overlap_prob: float = 0.15,
-    active: Callable[[float], np.ndarray] | np.ndarray | None = None,
-    active_frame_s: float | None = None,
-    min_turn: float = 0.3,
-) -> list[SpeechSegment]:
-    """A conversation: speakers take turns, with pauses and occasional overlaps.
-
-    Model: a turn lasts ``max(min_turn, Gamma(2, mean_turn / 2))`` seconds (mean about
-    ``mean_turn``; right-skewed like measured turn lengths). The next speaker is drawn
-    uniformly among the speakers allowed to talk other than the current one (the same one only
-    when nobody else may talk, and then after a pause). With probability ``overlap_prob`` the
-    next turn starts ``U(0.2, 1.0)`` s (at most half the current turn) before the current one
-    ends; otherwise after a ``Gamma(2, mean_pause / 2)`` pause.
-
-    Parameters
-    ----------
-    n_speakers : int
-        Number of speakers, ids ``1..n_speakers``.
-    duration : float
-        Scene length in seconds; segments are clipped to ``[0, duration]``.
-    rng : numpy.random.Generator
-    mean_turn, mean_pause : float
-        Mean turn length and mean pause between turns, seconds.
-    overlap_prob : float in [0, 1]
-        Probability that a turn change overlaps.
-    active : callable or ndarray (F, n_speakers) bool, optional
-        Who may talk when: ``active(t) -> (n_speakers,) bool``, or a matrix of frames of
-        ``active_frame_s`` seconds (default ``duration / F``; times past the last frame count
-        as inactive). A turn ends early when its speaker stops being active. A callable is
-        sampled every 10 ms.
-    active_frame_s : float, optional
-        Frame length of an ``active`` matrix.
-    min_turn : float
-        Shortest turn, seconds.
-
-    Returns
-    -------
-    list of SpeechSegment
-        Sorted by start (ties by speaker), ``utterance="synthetic"``.
-    """
-    func = "turn_taking_schedule"
-    n_s = _check_count(func, "n_speakers", n_speakers)
-    dur = _check_positive(func, "duration", duration)
-    _check_rng(func, rng)
-    mean_turn = _check_positive(func, "mean_turn", mean_turn)
-    mean_pause = _check_positive(func, "mean_pause", mean_pause, allow_zero=True)
-    min_turn = _check_positive(func, "min_turn", min_turn)
-    p_overlap = float(overlap_prob)
-    if not 0.0 <= p_overlap <= 1.0:
-        raise ValueError(f"{func}: overlap_prob must be in [0, 1], got {overlap_prob!r}")
-
+def _activity_mask(
+    func: str,
+    active: Callable[[float], np.ndarray] | np.ndarray | None,
+    active_frame_s: float | None,
+    dur: float,
+    n_s: int,
+) -> tuple[np.ndarray | None, float]:
+    """Who may talk in each frame, ``(F, n_s)`` bool (None: everyone always), and the frame
+    length in seconds, from :func:`turn_taking_schedule`'s ``active`` argument."""
     mask: np.ndarray | None = None
     frame_s = 0.01
     if callable(active):
@@ -142,6 +94,21 @@ def turn_taking_schedule(
             if active_frame_s is None
             else _check_positive(func, "active_frame_s", active_frame_s)
         )
+    return mask, frame_s
+
+
+def _draw_turns(
+    rng: np.random.Generator,
+    n_s: int,
+    dur: float,
+    mask: np.ndarray | None,
+    frame_s: float,
+    mean_turn: float,
+    mean_pause: float,
+    min_turn: float,
+    p_overlap: float,
+) -> list[SpeechSegment]:
+    """The turns of :func:`turn_taking_schedule`'s model, in the order they are drawn."""
 
     def pause() -> float:
         return rng.gamma(2.0, mean_pause / 2.0) if mean_pause > 0 else 0.0
@@ -199,6 +166,70 @@ def turn_taking_schedule(
             t = end - min(rng.uniform(0.2, 1.0), 0.5 * (end - t))
         else:
             t = end + pause()
+    return segments
+
+
+def turn_taking_schedule(
+    n_speakers: int,
+    duration: float,
+    rng: np.random.Generator,
+    mean_turn: float = 2.5,
+    mean_pause: float = 0.6,
+    overlap_prob: float = 0.15,
+    active: Callable[[float], np.ndarray] | np.ndarray | None = None,
+    active_frame_s: float | None = None,
+    min_turn: float = 0.3,
+) -> list[SpeechSegment]:
+    """A conversation: speakers take turns, with pauses and occasional overlaps.
+
+    Model: a turn lasts ``max(min_turn, Gamma(2, mean_turn / 2))`` seconds (mean about
+    ``mean_turn``; right-skewed like measured turn lengths). The next speaker is drawn
+    uniformly among the speakers allowed to talk other than the current one (the same one only
+    when nobody else may talk, and then after a pause). With probability ``overlap_prob`` the
+    next turn starts ``U(0.2, 1.0)`` s (at most half the current turn) before the current one
+    ends; otherwise after a ``Gamma(2, mean_pause / 2)`` pause.
+
+    Parameters
+    ----------
+    n_speakers : int
+        Number of speakers, ids ``1..n_speakers``.
+    duration : float
+        Scene length in seconds; segments are clipped to ``[0, duration]``.
+    rng : numpy.random.Generator
+    mean_turn, mean_pause : float
+        Mean turn length and mean pause between turns, seconds.
+    overlap_prob : float in [0, 1]
+        Probability that a turn change overlaps.
+    active : callable or ndarray (F, n_speakers) bool, optional
+        Who may talk when: ``active(t) -> (n_speakers,) bool``, or a matrix of frames of
+        ``active_frame_s`` seconds (default ``duration / F``; times past the last frame count
+        as inactive). A turn ends early when its speaker stops being active. A callable is
+        sampled every 10 ms.
+    active_frame_s : float, optional
+        Frame length of an ``active`` matrix.
+    min_turn : float
+        Shortest turn, seconds.
+
+    Returns
+    -------
+    list of SpeechSegment
+        Sorted by start (ties by speaker), ``utterance="synthetic"``.
+    """
+    func = "turn_taking_schedule"
+    n_s = _check_count(func, "n_speakers", n_speakers)
+    dur = _check_positive(func, "duration", duration)
+    _check_rng(func, rng)
+    mean_turn = _check_positive(func, "mean_turn", mean_turn)
+    mean_pause = _check_positive(func, "mean_pause", mean_pause, allow_zero=True)
+    min_turn = _check_positive(func, "min_turn", min_turn)
+    p_overlap = float(overlap_prob)
+    if not 0.0 <= p_overlap <= 1.0:
+        raise ValueError(f"{func}: overlap_prob must be in [0, 1], got {overlap_prob!r}")
+
+    mask, frame_s = _activity_mask(func, active, active_frame_s, dur, n_s)
+    segments = _draw_turns(
+        rng, n_s, dur, mask, frame_s, mean_turn, mean_pause, min_turn, p_overlap
+    )
     segments.sort(key=lambda s: (s.start, s.speaker))
     return segments
 
@@ -406,6 +437,21 @@ def synthetic_speech(
     f_inst = np.interp(i, centres, f_target)
     jitter = np.convolve(rng.standard_normal(n), np.ones(40) / np.sqrt(40), mode="same")
     f_inst *= 1.0 + 0.005 * jitter
+    source = _harmonic_source(f_inst, fs)
+    noise = rng.standard_normal(n)
+    vowel = _VOWELS[rng.integers(0, len(_VOWELS), k)] * (1 + 0.15 * (f_mean - 100) / 120)
+    voiced, unvoiced = _shape_formants(source, noise, fs, nper, centres, vowel)
+
+    y = (env_v * voiced + env_u * unvoiced)[:n_out]
+    active = ((env_v > 0) | (env_u > 0))[:n_out]
+    rms = np.sqrt(np.mean(y[active] ** 2)) if active.any() else 0.0
+    return y / rms if rms > 0 else y
+
+
+def _harmonic_source(f_inst: np.ndarray, fs: int) -> np.ndarray:
+    """``(n,)`` harmonic source on the f0 contour ``f_inst`` ``(n,)`` Hz: harmonic ``h`` with
+    amplitude ``1/h``, up to ``min(0.45 fs, 5 kHz)``."""
+    n = f_inst.shape[0]
     phase = 2 * np.pi * np.cumsum(f_inst) / fs  # φ(t) = 2π ∫ f0
     # Σ_h sin(h φ) / h over the harmonics below min(0.45 fs, 5 kHz) everywhere; e^{i h φ} by
     # repeated multiplication (cheaper than h sines).
@@ -416,13 +462,25 @@ def synthetic_speech(
     for h in range(1, n_harm + 1):
         source += zh.imag / h
         zh *= z
-    noise = rng.standard_normal(n)
+    return source
 
+
+def _shape_formants(
+    source: np.ndarray,
+    noise: np.ndarray,
+    fs: int,
+    nper: int,
+    centres: np.ndarray,
+    vowel: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The voiced and unvoiced signals ``(n,)``, each of unit RMS: ``source`` through the
+    vowel formants ``vowel`` ``(K, 3)`` Hz (interpolated between the unit ``centres`` ``(K,)``,
+    samples), and ``noise`` high-passed, both filtered in the STFT domain."""
+    n = source.shape[0]
     # Formant shaping in the STFT domain, formant tracks interpolated between syllables.
     hop = nper // 4
     freqs, times, spec_v = stft(source, fs, nperseg=nper, noverlap=nper - hop)
     _, _, spec_u = stft(noise, fs, nperseg=nper, noverlap=nper - hop)
-    vowel = _VOWELS[rng.integers(0, len(_VOWELS), k)] * (1 + 0.15 * (f_mean - 100) / 120)
     tracks = np.stack([np.interp(times * fs, centres, vowel[:, j]) for j in range(3)])  # (3, M)
     fr = freqs[:, None, None]
     fmt = tracks.T[None, :, :]  # (1, M, 3)
@@ -436,11 +494,7 @@ def synthetic_speech(
     unvoiced = _fit(unvoiced, n)
     voiced /= max(np.sqrt(np.mean(voiced**2)), 1e-12)
     unvoiced /= max(np.sqrt(np.mean(unvoiced**2)), 1e-12)
-
-    y = (env_v * voiced + env_u * unvoiced)[:n_out]
-    active = ((env_v > 0) | (env_u > 0))[:n_out]
-    rms = np.sqrt(np.mean(y[active] ** 2)) if active.any() else 0.0
-    return y / rms if rms > 0 else y
+    return voiced, unvoiced
 
 
 def _fit(x: np.ndarray, n: int) -> np.ndarray:

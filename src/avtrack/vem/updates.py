@@ -7,6 +7,68 @@ The model (thesis §2.2): each target ``n`` has a Gaussian state
 :math:`q(s_{tn}) = \mathcal{N}(\mu_{tn}, \Gamma_{tn})` (eq. 2.22); observation ``m`` is generated
 by target :math:`Z_{tm}=n` or by clutter :math:`Z_{tm}=0` (uniform density); the dynamics are
 linear-Gaussian :math:`p(s_{tn}|s_{t-1,n}) = \mathcal{N}(D s_{t-1,n}, \Lambda_{tn})` (eq. 2.6).
+
+The exclusive projection (:func:`exclusive_projection`, solved by :func:`_kl_projection`).
+
+**Optimality conditions.** With a multiplier :math:`\lambda_m` per row and
+:math:`\nu_n \ge 0` per target column (:math:`\nu_0 = 0` for clutter), stationarity of
+:math:`\sum_{mn} q_{mn}\log(q_{mn}/\alpha_{mn}) + \sum_m\lambda_m(\sum_n q_{mn} - 1) +
+\sum_n\nu_n(s_n - 1)` gives each row as :math:`\alpha_m` tilted by the multipliers and
+renormalised,
+
+.. math::
+    q_{mn}(\nu) = \alpha_{mn} e^{-\nu_n} / Z_m(\nu), \qquad
+    Z_m(\nu) = \sum_{n=0}^N \alpha_{mn} e^{-\nu_n},
+
+and the multipliers minimise the (negated) dual
+:math:`F(\nu) = \sum_m \log Z_m(\nu) + \sum_{n\ge1} \nu_n` over :math:`\nu \ge 0`, with
+:math:`\partial F/\partial\nu_n = 1 - s_n(\nu)`. The problem is convex with linear
+constraints and a strictly feasible point (everything on clutter), so :math:`q(\nu)` is
+the projection if and only if the KKT conditions hold:
+
+.. math::
+    \nu_n \ge 0, \qquad s_n(\nu) \le 1, \qquad \nu_n\,(1 - s_n(\nu)) = 0 \quad (n \ge 1),
+
+i.e. a target's column is scaled down (:math:`\nu_n > 0`) only if it then sums to exactly
+1. The Hessian :math:`H = \sum_m \mathrm{diag}(q_m) - q_m q_m^\top` (on the target columns)
+is positive definite on the columns with mass because every :math:`q_{m0} > 0`, and its
+off-diagonal entries are :math:`\le 0`: raising :math:`\nu_k` moves mass into every other
+column.
+
+**Solver.** Only the working set
+:math:`W = \{n \ge 1: \nu_n > 0 \text{ or } s_n > 1\}` moves (a column at
+:math:`\nu_n = 0` with :math:`s_n \le 1` meets its conditions), by two kinds of iterations,
+each of which decreases :math:`F`:
+
+* Exact minimisation over one multiplier, the others held (:func:`_solve_column`): with
+  :math:`a_m = \alpha_{mn}e^{-\nu_n}` and :math:`b_m` the rest of row ``m``, the column sum
+  after scaling :math:`e^{\nu_n}` by :math:`t`, :math:`s(t) = \sum_m a_m/(a_m + b_m t)`, is
+  convex and decreasing in :math:`t`, concave and increasing in :math:`u = 1/t`. Newton's
+  method on :math:`t` from :math:`s > 1` (on :math:`u` from :math:`s < 1`) therefore
+  approaches the root monotonically from its starting side, never overshooting, and
+  converges quadratically; it is clipped at :math:`\nu_n = 0`. This is the whole solver in
+  the usual case, one target claimed by two detections (23 of the 25 projected calls of a
+  TUD-Campus run). As :math:`s_n` increases with the other multipliers, the root for one
+  column can only rise with them, so from :math:`\nu = 0` these steps keep
+  :math:`\nu \le \nu^*`: the multipliers rise to the solution from below.
+* Projected Newton on :math:`W` once all its multipliers are positive:
+  :math:`d = -H_{WW}^{-1}(1 - s_W)`, taken along
+  :math:`\nu_n + \mathrm{sign}(d_n)\log(1 + \tau|d_n|)` (Newton on :math:`e^{\nu_n}` where
+  :math:`d_n > 0`, on :math:`e^{-\nu_n}` where :math:`d_n < 0`), projected on
+  :math:`0 \le \nu_n \le \log(M\max_m \alpha_{mn}/\alpha_{m0}) + 1` (a box that holds
+  :math:`\nu^*`: an active column has some :math:`q_{mn} \ge 1/M`, and
+  :math:`q_{mn} \le e^{-\nu_n}\alpha_{mn}/\alpha_{m0}`), with Armijo backtracking in
+  :math:`\tau` on :math:`F` evaluated without cancellation. A step that fails the search,
+  or that did not reduce :math:`\max_W|1 - s_n|` fourfold, is followed by a sweep of
+  exact one-column minimisations (a target owning a row against tiny clutter makes
+  :math:`F` very flat, and its Newton steps short).
+
+Both kinds decrease :math:`F` sufficiently (Armijo; exact minimisation over a coordinate),
+and :math:`F` is strictly convex on the columns with mass (every :math:`q_{m0} > 0`), so
+the iterations converge to its minimiser :math:`\nu^*`. They stop when
+:math:`s_n \le 1 +` :data:`FEASIBILITY_TOL` for every target and
+:math:`\max(1, \nu_n)\,|1 - s_n| \le` :data:`KKT_TOL` wherever :math:`\nu_n > 0`, i.e.
+when the KKT conditions hold (stationarity holds by construction of :math:`q(\nu)`).
 """
 
 from __future__ import annotations
@@ -126,66 +188,8 @@ def exclusive_projection(
     is the projection of that :math:`\alpha` (the rows need not be renormalised: the
     projection onto row sums 1 absorbs their scale).
 
-    **Optimality conditions.** With a multiplier :math:`\lambda_m` per row and
-    :math:`\nu_n \ge 0` per target column (:math:`\nu_0 = 0` for clutter), stationarity of
-    :math:`\sum_{mn} q_{mn}\log(q_{mn}/\alpha_{mn}) + \sum_m\lambda_m(\sum_n q_{mn} - 1) +
-    \sum_n\nu_n(s_n - 1)` gives each row as :math:`\alpha_m` tilted by the multipliers and
-    renormalised,
-
-    .. math::
-        q_{mn}(\nu) = \alpha_{mn} e^{-\nu_n} / Z_m(\nu), \qquad
-        Z_m(\nu) = \sum_{n=0}^N \alpha_{mn} e^{-\nu_n},
-
-    and the multipliers minimise the (negated) dual
-    :math:`F(\nu) = \sum_m \log Z_m(\nu) + \sum_{n\ge1} \nu_n` over :math:`\nu \ge 0`, with
-    :math:`\partial F/\partial\nu_n = 1 - s_n(\nu)`. The problem is convex with linear
-    constraints and a strictly feasible point (everything on clutter), so :math:`q(\nu)` is
-    the projection if and only if the KKT conditions hold:
-
-    .. math::
-        \nu_n \ge 0, \qquad s_n(\nu) \le 1, \qquad \nu_n\,(1 - s_n(\nu)) = 0 \quad (n \ge 1),
-
-    i.e. a target's column is scaled down (:math:`\nu_n > 0`) only if it then sums to exactly
-    1. The Hessian :math:`H = \sum_m \mathrm{diag}(q_m) - q_m q_m^\top` (on the target columns)
-    is positive definite on the columns with mass because every :math:`q_{m0} > 0`, and its
-    off-diagonal entries are :math:`\le 0`: raising :math:`\nu_k` moves mass into every other
-    column.
-
-    **Solver** (:func:`_kl_projection`). Only the working set
-    :math:`W = \{n \ge 1: \nu_n > 0 \text{ or } s_n > 1\}` moves (a column at
-    :math:`\nu_n = 0` with :math:`s_n \le 1` meets its conditions), by two kinds of iterations,
-    each of which decreases :math:`F`:
-
-    * Exact minimisation over one multiplier, the others held (:func:`_solve_column`): with
-      :math:`a_m = \alpha_{mn}e^{-\nu_n}` and :math:`b_m` the rest of row ``m``, the column sum
-      after scaling :math:`e^{\nu_n}` by :math:`t`, :math:`s(t) = \sum_m a_m/(a_m + b_m t)`, is
-      convex and decreasing in :math:`t`, concave and increasing in :math:`u = 1/t`. Newton's
-      method on :math:`t` from :math:`s > 1` (on :math:`u` from :math:`s < 1`) therefore
-      approaches the root monotonically from its starting side, never overshooting, and
-      converges quadratically; it is clipped at :math:`\nu_n = 0`. This is the whole solver in
-      the usual case, one target claimed by two detections (23 of the 25 projected calls of a
-      TUD-Campus run). As :math:`s_n` increases with the other multipliers, the root for one
-      column can only rise with them, so from :math:`\nu = 0` these steps keep
-      :math:`\nu \le \nu^*`: the multipliers rise to the solution from below.
-    * Projected Newton on :math:`W` once all its multipliers are positive:
-      :math:`d = -H_{WW}^{-1}(1 - s_W)`, taken along
-      :math:`\nu_n + \mathrm{sign}(d_n)\log(1 + \tau|d_n|)` (Newton on :math:`e^{\nu_n}` where
-      :math:`d_n > 0`, on :math:`e^{-\nu_n}` where :math:`d_n < 0`), projected on
-      :math:`0 \le \nu_n \le \log(M\max_m \alpha_{mn}/\alpha_{m0}) + 1` (a box that holds
-      :math:`\nu^*`: an active column has some :math:`q_{mn} \ge 1/M`, and
-      :math:`q_{mn} \le e^{-\nu_n}\alpha_{mn}/\alpha_{m0}`), with Armijo backtracking in
-      :math:`\tau` on :math:`F` evaluated without cancellation. A step that fails the search,
-      or that did not reduce :math:`\max_W|1 - s_n|` fourfold, is followed by a sweep of
-      exact one-column minimisations (a target owning a row against tiny clutter makes
-      :math:`F` very flat, and its Newton steps short).
-
-    Both kinds decrease :math:`F` sufficiently (Armijo; exact minimisation over a coordinate),
-    and :math:`F` is strictly convex on the columns with mass (every :math:`q_{m0} > 0`), so
-    the iterations converge to its minimiser :math:`\nu^*`. They stop when
-    :math:`s_n \le 1 +` :data:`FEASIBILITY_TOL` for every target and
-    :math:`\max(1, \nu_n)\,|1 - s_n| \le` :data:`KKT_TOL` wherever :math:`\nu_n > 0`, i.e.
-    when the KKT conditions hold (stationarity holds by construction of :math:`q(\nu)`).
-    Rows sum to 1 to rounding.
+    The exact projection is computed by :func:`_kl_projection`; the module docstring gives
+    the optimality conditions and the solver. Rows sum to 1 to rounding.
 
     Parameters
     ----------
@@ -239,7 +243,10 @@ _MAX_ITER = 100
 
 def _kl_projection(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     r"""The projection ``q`` ``(M, N + 1)`` of :func:`exclusive_projection` and its multipliers
-    :math:`\nu` ``(N + 1,)`` (:math:`\nu_0 = 0`); ``alpha`` has a positive clutter column 0."""
+    :math:`\nu` ``(N + 1,)`` (:math:`\nu_0 = 0`); ``alpha`` has a positive clutter column 0.
+
+    The optimality conditions and the solver are described in the module docstring.
+    """
     m, n1 = alpha.shape
     nu = np.zeros(n1)
     w = alpha.copy()  # tilted rows w_mn = α_mn e^{-ν_n}

@@ -143,23 +143,9 @@ def _read_nodes(text: str) -> list[_Node]:
     return nodes
 
 
-def ssd_text_graph(pb_path: str | Path, num_classes: int = 1) -> str:
-    """The text graph (.pbtxt) with which ``cv2.dnn.readNetFromTensorflow`` runs an SSD frozen
-    graph of the TensorFlow Object Detection API (convolutional box predictor, SSD anchor
-    generator of this module's constants): the feature extractor and box predictors of the graph,
-    then OpenCV's ``PriorBox`` per predictor and one ``DetectionOutput`` (NMS IoU 0.6).
-
-    Raises
-    ------
-    ValueError
-        The graph is not of that layout (no placeholder first, not 6 box predictors).
-    """
-    import cv2
-
-    with tempfile.TemporaryDirectory() as tmp:
-        raw = Path(tmp) / "graph.pbtxt"
-        cv2.dnn.writeTextGraph(str(pb_path), str(raw))  # the layers, without the weights
-        nodes = _read_nodes(raw.read_text())
+def _feature_layers(nodes: list[_Node]) -> list[_Node]:
+    """The layers of the feature extractor and the box predictors, their inputs bypassing
+    Identity nodes and removed layers, without the attributes OpenCV does not read."""
     # Identity nodes: their consumers read the Identity's own input (chains resolved)
     ident = {n.name: n.input[0] for n in nodes if n.op == "Identity"}
 
@@ -181,28 +167,15 @@ def ssd_text_graph(pb_path: str | Path, num_classes: int = 1) -> str:
     for n in kept:  # constants (weights) are read from the binary graph by name
         n.input = [i for i in (resolve(i) for i in n.input) if i not in removed]
         n.attr = [(k, v) for k, v in n.attr if k not in unused_attrs]
-    nodes = kept
-    if len(nodes) < 3 or nodes[0].op != "Placeholder":
+    if len(kept) < 3 or kept[0].op != "Placeholder":
         raise ValueError(f"pb_path: expected an SSD graph whose first layer is the image "
-                         f"placeholder, got {nodes[0].op if nodes else 'no layers'}")
-    nodes[1].input = [nodes[0].name, nodes[1].input[-1]]  # the image feeds the first layer
-    image = nodes[0].name
-    m = N_LAYERS
-    nodes += [_Node("concat/axis_flatten", "Const").add("value", [-1])]
-    for label in ("ClassPredictor", "BoxEncodingPredictor"):
-        flat = []
-        for i in range(m):
-            src = f"BoxPredictor_{i}/{label}/BiasAdd"
-            nodes.append(_Node(src + "/Flatten", "Flatten", [src]))
-            flat.append(src + "/Flatten")
-        nodes.append(_Node(f"{label}/concat", "ConcatV2", [*flat, "concat/axis_flatten"]))
-    matched = 0
-    for n in nodes:  # TensorFlow's box encodings are (y, x, h, w)
-        if re.match(r"BoxPredictor_\d/BoxEncodingPredictor/(convolution|Conv2D)$", n.name):
-            n.add("loc_pred_transposed", True)
-            matched += 1
-    if matched != m:
-        raise ValueError(f"pb_path: expected {m} SSD box predictors, found {matched}")
+                         f"placeholder, got {kept[0].op if kept else 'no layers'}")
+    return kept
+
+
+def _prior_boxes(nodes: list[_Node], image: str, m: int) -> list[str]:
+    """Append OpenCV's ``PriorBox`` of each of the ``m`` box predictors to ``nodes`` (the SSD
+    anchors of this module's constants); their names."""
     smin, smax, size = MIN_SCALE, MAX_SCALE, float(INPUT_SIZE)
     # s_k = s_min + (s_max - s_min) (k - 1) / (m - 1)   (Liu et al. 2016, eq. 4)
     scales = [smin + (smax - smin) * k / (m - 1) for k in range(m)] + [1.0]
@@ -221,6 +194,60 @@ def ssd_text_graph(pb_path: str | Path, num_classes: int = 1) -> str:
         p.add("variance", [0.1, 0.1, 0.2, 0.2])  # 1 / box-coder scales (10, 10, 5, 5)
         nodes.append(p)
         priors.append(p.name)
+    return priors
+
+
+def _text_graph(nodes: list[_Node]) -> str:
+    """``nodes`` in the protobuf text format."""
+    lines: list[str] = []
+    for n in nodes:
+        lines += ["node {", f'  name: "{n.name}"', f'  op: "{n.op}"']
+        lines += [f'  input: "{i}"' for i in n.input]
+        for k, v in n.attr:
+            lines += ["  attr {", f'    key: "{k}"', "    value {"]
+            _dump(v, 6, lines)
+            lines += ["    }", "  }"]
+        lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def ssd_text_graph(pb_path: str | Path, num_classes: int = 1) -> str:
+    """The text graph (.pbtxt) with which ``cv2.dnn.readNetFromTensorflow`` runs an SSD frozen
+    graph of the TensorFlow Object Detection API (convolutional box predictor, SSD anchor
+    generator of this module's constants): the feature extractor and box predictors of the graph,
+    then OpenCV's ``PriorBox`` per predictor and one ``DetectionOutput`` (NMS IoU 0.6).
+
+    Raises
+    ------
+    ValueError
+        The graph is not of that layout (no placeholder first, not 6 box predictors).
+    """
+    import cv2
+
+    with tempfile.TemporaryDirectory() as tmp:
+        raw = Path(tmp) / "graph.pbtxt"
+        cv2.dnn.writeTextGraph(str(pb_path), str(raw))  # the layers, without the weights
+        nodes = _read_nodes(raw.read_text())
+    nodes = _feature_layers(nodes)
+    nodes[1].input = [nodes[0].name, nodes[1].input[-1]]  # the image feeds the first layer
+    image = nodes[0].name
+    m = N_LAYERS
+    nodes += [_Node("concat/axis_flatten", "Const").add("value", [-1])]
+    for label in ("ClassPredictor", "BoxEncodingPredictor"):
+        flat = []
+        for i in range(m):
+            src = f"BoxPredictor_{i}/{label}/BiasAdd"
+            nodes.append(_Node(src + "/Flatten", "Flatten", [src]))
+            flat.append(src + "/Flatten")
+        nodes.append(_Node(f"{label}/concat", "ConcatV2", [*flat, "concat/axis_flatten"]))
+    matched = 0
+    for n in nodes:  # TensorFlow's box encodings are (y, x, h, w)
+        if re.match(r"BoxPredictor_\d/BoxEncodingPredictor/(convolution|Conv2D)$", n.name):
+            n.add("loc_pred_transposed", True)
+            matched += 1
+    if matched != m:
+        raise ValueError(f"pb_path: expected {m} SSD box predictors, found {matched}")
+    priors = _prior_boxes(nodes, image, m)
     nodes.append(_Node("PriorBox/concat", "ConcatV2", [*priors, "concat/axis_flatten"]))
     nodes.append(_Node("ClassPredictor/concat3d/shape", "Const").add(
         "value", [0, -1, num_classes + 1]))
@@ -242,16 +269,7 @@ def ssd_text_graph(pb_path: str | Path, num_classes: int = 1) -> str:
         if len(left) == len(nodes):
             break
         nodes = left
-    lines: list[str] = []
-    for n in nodes:
-        lines += ["node {", f'  name: "{n.name}"', f'  op: "{n.op}"']
-        lines += [f'  input: "{i}"' for i in n.input]
-        for k, v in n.attr:
-            lines += ["  attr {", f'    key: "{k}"', "    value {"]
-            _dump(v, 6, lines)
-            lines += ["    }", "  }"]
-        lines.append("}")
-    return "\n".join(lines) + "\n"
+    return _text_graph(nodes)
 
 
 def _package_file(package: str, name: str, extra: str) -> Path:

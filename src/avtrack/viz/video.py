@@ -699,20 +699,69 @@ def render_overlay_frames(
         ``width`` rounded up to even numbers.
     """
     r = _renderer(
-        tracks,
-        speaking,
-        image_size,
-        fps,
-        n_frames,
-        gt,
-        camera,
-        room_dims,
-        show_gt_boxes,
-        legend,
-        title,
-        persons,
+        tracks, speaking, image_size, fps, n_frames, gt, camera, room_dims, show_gt_boxes,
+        legend, title, persons,
     )
     return (r.frame(f) for f in range(1, r.n_frames + 1))
+
+
+def _open_video_writer(tmp: Path, fourcc: str, r: _Renderer, path: Path):
+    """An OpenCV writer of ``r``'s frames into ``tmp`` (RuntimeError naming ``path`` if the
+    ``fourcc`` encoder cannot be opened)."""
+    import cv2
+
+    with _native_stderr_silenced():  # FFmpeg's harmless 'tag ... not supported' notice
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter.fourcc(*fourcc), r.fps, r.out_size)
+    if not writer.isOpened():
+        raise RuntimeError(
+            f"OpenCV {cv2.__version__} cannot open a {fourcc!r} video writer for {path} "
+            f"(codecs that work with opencv-python-headless: "
+            f"{', '.join(f'{v!r} for {k}' for k, v in VIDEO_CODECS.items())})"
+        )
+    return writer
+
+
+def _write_frames(
+    writer, r: _Renderer, frames: Iterable[np.ndarray] | None, desc: str, progress: bool
+) -> None:
+    """Write ``r``'s frames ``1, ..., r.n_frames`` with ``writer``, drawn over ``frames`` when
+    given (ValueError if they end early)."""
+    from tqdm import tqdm
+
+    source = None if frames is None else iter(frames)
+    for f in tqdm(range(1, r.n_frames + 1), unit="frame", desc=desc, disable=not progress):
+        bg = None
+        if source is not None:
+            bg = next(source, None)
+            if bg is None:
+                raise ValueError(f"the video ended at frame {f - 1} of {r.n_frames}")
+        writer.write(r.frame(f) if bg is None else r.frame(f, bg))
+
+
+def _encode_video(
+    path: Path, fourcc: str, r: _Renderer, frames: Iterable[np.ndarray] | None, progress: bool
+) -> None:
+    """Encode ``r``'s frames into ``path`` through a temporary file, leaving nothing at
+    ``path`` on failure."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp_name = temp_output(path, path.suffix)
+    os.close(fd)
+    tmp = Path(tmp_name)
+    writer = None
+    try:
+        writer = _open_video_writer(tmp, fourcc, r, path)
+        _write_frames(writer, r, frames, path.name, progress)
+        writer.release()
+        writer = None
+        if tmp.stat().st_size == 0:
+            raise RuntimeError(f"OpenCV wrote an empty video for {path} (codec {fourcc!r})")
+        os.replace(tmp, path)
+    except BaseException:
+        if writer is not None:
+            writer.release()
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+        raise
 
 
 def render_overlay_video(
@@ -794,62 +843,13 @@ def render_overlay_video(
         OpenCV cannot open an encoder for ``codec``. Nothing is left at ``path`` then, nor
         after any other failure.
     """
-    import cv2
-    from tqdm import tqdm
-
     path = Path(path)
     fourcc = video_codec(path, codec)
     r = _renderer(
-        tracks,
-        speaking,
-        image_size,
-        fps,
-        n_frames,
-        gt,
-        camera,
-        room_dims,
-        show_gt_boxes,
-        legend,
-        title,
-        persons,
+        tracks, speaking, image_size, fps, n_frames, gt, camera, room_dims, show_gt_boxes,
+        legend, title, persons,
     )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = temp_output(path, path.suffix)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    writer = None
-    try:
-        with _native_stderr_silenced():  # FFmpeg's harmless 'tag ... not supported' notice
-            writer = cv2.VideoWriter(
-                str(tmp), cv2.VideoWriter.fourcc(*fourcc), r.fps, r.out_size
-            )
-        if not writer.isOpened():
-            raise RuntimeError(
-                f"OpenCV {cv2.__version__} cannot open a {fourcc!r} video writer for {path} "
-                f"(codecs that work with opencv-python-headless: "
-                f"{', '.join(f'{v!r} for {k}' for k, v in VIDEO_CODECS.items())})"
-            )
-        source = None if frames is None else iter(frames)
-        for f in tqdm(
-            range(1, r.n_frames + 1), unit="frame", desc=path.name, disable=not progress
-        ):
-            bg = None
-            if source is not None:
-                bg = next(source, None)
-                if bg is None:
-                    raise ValueError(f"the video ended at frame {f - 1} of {r.n_frames}")
-            writer.write(r.frame(f) if bg is None else r.frame(f, bg))
-        writer.release()
-        writer = None
-        if tmp.stat().st_size == 0:
-            raise RuntimeError(f"OpenCV wrote an empty video for {path} (codec {fourcc!r})")
-        os.replace(tmp, path)
-    except BaseException:
-        if writer is not None:
-            writer.release()
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
-        raise
+    _encode_video(path, fourcc, r, frames, progress)
     return path
 
 
