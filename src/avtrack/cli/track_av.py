@@ -201,6 +201,12 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
         "tracked direction, silent outside their speaker turns; as microphone 0 hears it)",
     )
     p.add_argument(
+        "--no-vad", action="store_true",
+        help="--model direction: speaker turns from the tracker's speaking probability at the "
+        "video frame rate only (by default they are refined at the audio's 8 ms frames by a "
+        "voice activity detector, webrtcvad, when it is installed)",
+    )
+    p.add_argument(
         "--config", type=Path, metavar="FILE.yaml",
         help="tracker parameters (PersonConfig or VAVITConfig fields, see below)"
     )
@@ -376,7 +382,8 @@ def run_direction(args: argparse.Namespace) -> int:
     try:
         with progress.activity(f"tracking {scene.n_frames} frames", args.quiet):
             res = track_scene_persons(
-                scene, fov_fraction=args.fov_fraction, config=config
+                scene, fov_fraction=args.fov_fraction, config=config,
+                vad=False if args.no_vad else None,
             )
     except InputError:
         raise
@@ -513,6 +520,7 @@ def run_recording(args: argparse.Namespace) -> int:
                 appearance = detection_histograms(iter_frames(video.path, video), dets,
                                                   n_frames)
     peaks, span = None, 360.0
+    heat = grid = activity = None
     if not args.no_audio:
         if args.doa is not None:
             from avtrack.io.doa import azimuths_per_frame, read_doa_csv
@@ -529,6 +537,14 @@ def run_recording(args: argparse.Namespace) -> int:
             peaks = audio_peaks(heat.weights, heat.time_s, grid, fps, n_frames,
                                 floor=audio_peak_floor(PERSONS_LOCALIZER))
             span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
+            if not args.no_vad:
+                from avtrack.audio.recording import FS
+                from avtrack.av.vad import vad_available, voice_activity, warn_vad_missing
+
+                if vad_available():
+                    activity = voice_activity(audio[0], FS)
+                else:
+                    warn_vad_missing()
     vcfg = config.visual
     if args.appearance is None and appearance is not None and vcfg.appearance != "bhattacharyya":
         from dataclasses import replace
@@ -538,7 +554,8 @@ def run_recording(args: argparse.Namespace) -> int:
     res, elapsed = _track_and_write(
         out, f"tracking {n_frames} frames", args.quiet, peaks is not None,
         lambda: track_persons(dets, appearance, peaks, geometry, fps, n_frames,
-                              visual_config=vcfg, config=config, azimuth_span_deg=span))
+                              visual_config=vcfg, config=config, azimuth_span_deg=span,
+                              heat=heat, grid=grid, activity=activity))
     if args.voices:
         if audio is None:
             raise InputError("--voices needs --audio with --array (the microphones to beamform)")
