@@ -1,5 +1,5 @@
 """Speaker turns of ``track-av`` with and without the voice activity detector, on simulated
-walkouts and meetings at 40 % view.
+walkouts (full view, as ``bench_persons.py``, and 40 % view) and meetings at 40 % view.
 
 Per scene: DER scored as DIHARD does (no collar, overlapped speech scored), DER with a 0.5 s
 collar (0.25 s each side of every reference boundary), and speakers found against the truth,
@@ -46,8 +46,8 @@ from avtrack.metrics.der import DERComponents, diarization_error_rate  # noqa: E
 from avtrack.simulate.library import named_scenario  # noqa: E402
 from avtrack.simulate.scene import simulate_scene, write_scene  # noqa: E402
 
-SUITES = {"walkout": ("walkout", 1.0), "meeting-pfov": ("meeting", 0.4),
-          "meeting-ffov": ("meeting", 1.0)}
+SUITES = {"walkout": ("walkout", 1.0), "walkout-pfov": ("walkout", 0.4),
+          "meeting-pfov": ("meeting", 0.4), "meeting-ffov": ("meeting", 1.0)}
 
 
 def scene_dir(work: Path, kind: str, seed: int, duration: float) -> Path:
@@ -129,7 +129,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--work", type=Path, default=Path("/tmp/avt/bench-vad"))
     ap.add_argument("--seeds", default="0-19", help="e.g. 0-19 or 0,3,5")
     ap.add_argument("--duration", type=float, default=40.0)
-    ap.add_argument("--suites", default="walkout,meeting-pfov")
+    ap.add_argument("--suites", default="walkout,walkout-pfov,meeting-pfov",
+                    help=f"comma-separated, of {', '.join(SUITES)}")
     args = ap.parse_args(argv)
     if "-" in args.seeds:
         lo, hi = (int(x) for x in args.seeds.split("-"))

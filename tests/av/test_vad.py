@@ -82,6 +82,36 @@ def test_fusion_keeps_an_overlapping_turn_and_gives_each_voice_its_person():
     assert not none.any()
 
 
+def test_speech_from_where_nobody_is_tracked_is_an_unseen_speaker():
+    """A voice at +45 deg, where no person is tracked, that the tracker gave to the person at
+    +30 deg (its peaks close enough to theirs): the fusion gives it to nobody, and the
+    unclaimed speech is one speaker at +45 deg."""
+    hop, fps, n_f = FRAME_HOP_S, 25.0, 75
+    frames = np.arange(1, n_f + 1)
+    persons = PersonsTable(frames, np.ones(n_f, int), np.full(n_f, 30.0), np.zeros(n_f),
+                           np.full((n_f, 2), np.nan), np.ones(n_f, bool), np.ones(n_f), fps)
+    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
+    t_heat = np.arange(round(3.0 / hop)) * hop + hop / 2
+    w = np.full((t_heat.size, grid.size), 1.0 / grid.size)
+    voice = (t_heat >= 0.5) & (t_heat < 2.5)
+    w[voice] = 0.0
+    w[voice, np.argmin(np.abs(grid - 45.0))] = 1.0
+    t_vad = (np.arange(300) + 0.5) * 0.01
+    act = V.VoiceActivity(t_vad, (t_vad >= 0.5) & (t_vad < 2.5), 0.01)
+    t, ids, speaking = V.fuse_speaking(persons, np.ones(n_f, bool), w, t_heat, grid, act)
+    assert not speaking.any()
+    centres, unseen = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
+    np.testing.assert_array_equal(centres, [45.0])
+    inner = (t > 0.62) & (t < 2.38)
+    assert unseen[inner, 0].all() and not unseen[(t < 0.4) | (t > 2.6), 0].any()
+    segs = V.activity_segments(t, np.arange(1, 2), unseen, label="U{}")
+    assert [s.speaker for s in segs] == ["U1"] and abs(segs[0].duration - 2.0) < 0.15
+    # from where the person stands, the same voice is theirs
+    w2 = np.roll(w, -3, axis=1)  # +45 -> +30 deg
+    _, _, mine = V.fuse_speaking(persons, np.ones(n_f, bool), w2, t_heat, grid, act)
+    assert mine[inner, 0].all()
+
+
 def test_turn_boundaries_are_refined_at_the_audio_frame_rate():
     """Turns start and end on the 8 ms audio frames, within a frame of the truth where speech
     starts or stops (0.504 s and 2.704 s are not on the video's 40 ms grid, the tracker's

@@ -67,7 +67,8 @@ class PersonsResult:
         Whether the person of each row of ``tracks`` speaks at that frame.
     persons : PersonsTable
     speech : list of RTTMSegment
-        Speaker turns (labels ``P<person id>``).
+        Speaker turns (labels ``P<person id>``; with the voice activity detector also
+        ``U<n>``, speech from a direction no tracked person stands at).
     n_frames : int
     fps : float
     fov : (float, float)
@@ -286,7 +287,7 @@ def _fused_speech(
     activity: VoiceActivity,
 ) -> list[RTTMSegment]:
     """The tracker's ``turns`` refined by the voice activity at the heat maps' frame rate."""
-    from avtrack.av.vad import activity_segments, fuse_speaking
+    from avtrack.av.vad import activity_segments, fuse_speaking, unclaimed_speakers
 
     t_row = (persons.frames - 1) / persons.fps
     in_turn = np.zeros(len(persons), dtype=bool)
@@ -298,7 +299,12 @@ def _fused_speech(
         w = w.reshape(len(heat), grid.n_elevations, grid.n_azimuths).sum(axis=1)
     time_s, ids, speaking = fuse_speaking(
         persons, in_turn, w, heat.time_s, grid.azimuth_values, activity)
-    return activity_segments(time_s, ids, speaking)
+    centres, unseen = unclaimed_speakers(
+        persons, speaking, w, heat.time_s, grid.azimuth_values, activity)
+    return sorted(
+        activity_segments(time_s, ids, speaking)
+        + activity_segments(time_s, np.arange(1, centres.size + 1), unseen, label="U{}"),
+        key=lambda s: (s.start, s.speaker))
 
 
 def scene_geometry(scene) -> CameraGeometry:

@@ -12,11 +12,14 @@ made for speech and refines the turns at the localizer's 8 ms frame rate:
 * :func:`fuse_speaking` says a person speaks in an 8 ms frame when the detector says speech
   there **and** the person's direction carries the frame's directional energy: the heat-map
   mass within ``window_deg`` of the person's tracked azimuth, smoothed over ``smooth_s``, is
-  at least ``share`` of the largest person's (several persons above it: overlapped speech,
-  kept) and at least ``min_mass``. Only persons the tracker heard within ``margin_s`` are
-  candidates, so a person is never made a speaker by the detector alone;
+  at least ``share`` of the frame's strongest direction's (several persons above it:
+  overlapped speech, kept) and at least ``min_mass``. Only persons the tracker heard within
+  ``margin_s`` are candidates, so a person is never made a speaker by the detector alone;
   The defaults were chosen on seeds 4–9 of the simulated walkouts and meetings
   (``benchmarks/bench_vad.py``);
+* :func:`unclaimed_speakers` groups the speech no person carries by direction into speakers
+  never tracked (labels ``U1, U2, ...``), as :func:`~avtrack.av.diarization.unseen_speakers`
+  does for the image-plane model: a talker the tracker merged into a neighbour;
 * :func:`activity_segments` turns the per-frame decisions into RTTM turns, bridging a person's
   pauses shorter than ``max_gap`` and dropping turns shorter than ``min_duration``.
 
@@ -193,12 +196,13 @@ def fuse_speaking(
     azimuths_deg: np.ndarray,
     activity: VoiceActivity,
     *,
-    window_deg: float = 12.5,
+    window_deg: float = 10.0,
     smooth_s: float = 0.2,
     share: float = 0.7,
     min_mass: float = 0.05,
     margin_s: float = 0.3,
     hop_s: float = FRAME_HOP_S,
+    frame_peak: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Who speaks in each audio frame: voice activity AND the person's directional evidence
     (see the module docstring).
@@ -220,6 +224,10 @@ def fuse_speaking(
         See the module docstring.
     hop_s : float
         Audio frame hop (the heat maps'), seconds.
+    frame_peak : bool
+        ``share`` of the frame's strongest direction (its mass within ``window_deg``, a
+        person there or not), else of the strongest person's: speech from where nobody is
+        tracked is then nobody's (:func:`unclaimed_speakers`), not the nearest person's.
 
     Returns
     -------
@@ -265,10 +273,80 @@ def fuse_speaking(
     if r > 0:
         cand = binary_dilation(cand, structure=np.ones((2 * r + 1, 1), dtype=bool))
     cand &= alive
-    top = np.where(cand, mass, 0.0).max(axis=1, keepdims=True)
+    if frame_peak:  # the strongest direction's mass, whether a person stands there or not
+        near = np.abs((az_grid[:, None] - az_grid[None, :] + 180.0) % 360.0 - 180.0)
+        peak = uniform_filter1d(w @ (near <= window_deg).astype(float), size=k, axis=0,
+                                mode="nearest").max(axis=1, keepdims=True)
+        top = np.maximum(np.where(cand, mass, 0.0).max(axis=1, keepdims=True), peak)
+    else:
+        top = np.where(cand, mass, 0.0).max(axis=1, keepdims=True)
     carries = cand & (mass >= share * top) & (mass >= min_mass)
     speaking = carries & activity.at(t_heat)[:, None]
     return t_heat, ids, speaking
+
+
+def unclaimed_speakers(
+    persons: PersonsTable,
+    speaking: np.ndarray,
+    heat_weights: np.ndarray,
+    heat_time_s: np.ndarray,
+    azimuths_deg: np.ndarray,
+    activity: VoiceActivity,
+    *,
+    window_deg: float = 10.0,
+    smooth_s: float = 0.2,
+    min_mass: float = 0.1,
+    min_speaker_s: float = 1.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Speech no tracked person carries, grouped by direction into speakers never tracked.
+
+    A frame is *unclaimed* when the voice activity says speech, no person speaks in it
+    (``speaking``, :func:`fuse_speaking`), and the strongest direction of the smoothed heat
+    map (with a mass within ``window_deg`` of at least ``min_mass``) is farther than ``window_deg``
+    from every living person. The unclaimed frames' directions are grouped greedily: the
+    commonest direction, with the unclaimed frames within ``window_deg`` of it, is a speaker
+    while those frames add up to ``min_speaker_s`` seconds; they are removed and the next one
+    is sought.
+
+    Returns
+    -------
+    centres : ndarray (U,)
+        Azimuth of each speaker found, degrees (in the order found).
+    speaking : ndarray (J, U) bool
+        Whether each speaks in each frame of ``heat_time_s``.
+    """
+    w = np.asarray(heat_weights, dtype=float)
+    t_heat = np.asarray(heat_time_s, dtype=float)
+    az_grid = np.asarray(azimuths_deg, dtype=float)
+    hop = float(np.median(np.diff(t_heat))) if t_heat.size > 1 else FRAME_HOP_S
+    if t_heat.size == 0:
+        return np.zeros(0), np.zeros((0, 0), dtype=bool)
+    near = np.abs((az_grid[:, None] - az_grid[None, :] + 180.0) % 360.0 - 180.0) <= window_deg
+    k = max(1, round(smooth_s / hop))
+    smooth = uniform_filter1d(w, size=k, axis=0, mode="nearest")
+    mass = smooth @ near.astype(float)
+    best = smooth.argmax(axis=1)  # the strongest direction (its window's mass below)
+    peak_az = az_grid[best]
+    free = activity.at(t_heat) & ~np.asarray(speaking, dtype=bool).any(axis=1)
+    free &= mass[np.arange(best.size), best] >= min_mass
+    if len(persons):
+        _, az = _person_azimuths(persons, t_heat)
+        d = np.abs((peak_az[:, None] - az + 180.0) % 360.0 - 180.0)
+        free &= ~np.any(np.isfinite(az) & (d <= window_deg), axis=1)
+    centres: list[float] = []
+    cols: list[np.ndarray] = []
+    left = free.copy()
+    while left.any():
+        c = int(np.bincount(best[left], minlength=az_grid.size).argmax())  # the commonest
+        mine = left & near[c, best]  # and the unclaimed frames within window_deg of it
+        if mine.sum() * hop < min_speaker_s:
+            break
+        centres.append(float(az_grid[c]))
+        cols.append(mine)
+        left &= ~mine
+    if not cols:
+        return np.zeros(0), np.zeros((t_heat.size, 0), dtype=bool)
+    return np.array(centres), np.stack(cols, axis=1)
 
 
 def activity_segments(
