@@ -98,7 +98,7 @@ def test_speech_from_where_nobody_is_tracked_is_an_unseen_speaker():
     w[voice, np.argmin(np.abs(grid - 45.0))] = 1.0
     t_vad = (np.arange(300) + 0.5) * 0.01
     act = V.VoiceActivity(t_vad, (t_vad >= 0.5) & (t_vad < 2.5), 0.01)
-    t, ids, speaking = V.fuse_speaking(persons, np.ones(n_f, bool), w, t_heat, grid, act)
+    t, _ids, speaking = V.fuse_speaking(persons, np.ones(n_f, bool), w, t_heat, grid, act)
     assert not speaking.any()
     centres, unseen = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
     np.testing.assert_array_equal(centres, [45.0])
