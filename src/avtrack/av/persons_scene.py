@@ -11,7 +11,9 @@
 
 and returns the MOTChallenge boxes of the persons in the image (the visual tracks, labelled
 with their person's identity), every person's direction every frame (``persons.csv``) and the
-speaker turns of every person heard, seen or not.
+speaker turns of every person heard, seen or not: the tracker's, at the video frame rate, or,
+given the heat maps and the recording's voice activity, refined at the heat maps' 8 ms frames
+(:mod:`avtrack.av.vad`).
 """
 
 from __future__ import annotations

@@ -64,7 +64,8 @@ Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes of persons s
 image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked person every
 frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y and in_view
 only while the camera shows the person: in the image and seen in the last 0.1 s),
-OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --no-audio),
+OUT_DIR/speech.rttm (who speaks when, speakers P<person id>, and U<n> for speech from a
+direction where no person is tracked; not with --no-audio),
 OUT_DIR/voices/<id>.wav (--voices: each person's voice; score them with avtrack eval voices),
 OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
 image --plot); with --video (a recording of your own, AV16.3), OUT_DIR/index.html and
@@ -105,9 +106,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 Variational audio-visual tracking and diarization of several speakers. By default persons
 live in directions from the microphone array (the camera's view a window inside them):
 head detections enter through the camera geometry, DP-RTF + EG audio peaks directly, so a
-person out of view stays tracked while heard and a talker never seen gets a track.
---model image: the thesis's image-plane model (ch. 4) with a learned GLLiM mapping.
-SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
+person out of view stays tracked while heard and a talker never seen gets a track. Speaker
+turns: who the tracker hears, refined at the audio's 8 ms frames by a voice activity detector
+(webrtcvad) and each person's share of the frame's directional energy (--no-vad: the
+tracker's 40 ms turns only). --model image: the thesis's image-plane model (ch. 4) with a
+learned GLLiM mapping. SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
         epilog=EXAMPLES,
     )
     p.add_argument("scene", type=Path, metavar="SCENE_DIR", nargs="?",
