@@ -11,7 +11,9 @@
 
 and returns the MOTChallenge boxes of the persons in the image (the visual tracks, labelled
 with their person's identity), every person's direction every frame (``persons.csv``) and the
-speaker turns of every person heard, seen or not.
+speaker turns of every person heard, seen or not: the tracker's, at the video frame rate, or,
+given the heat maps and the recording's voice activity, refined at the heat maps' 8 ms frames
+(:mod:`avtrack.av.vad`).
 """
 
 from __future__ import annotations
@@ -25,9 +27,11 @@ from avtrack.audio.arrays import MicArray
 from avtrack.av.diarization import speaking_segments
 from avtrack.av.geometry import CameraGeometry
 from avtrack.av.persons import PersonConfig, PersonTracker
+from avtrack.av.vad import VoiceActivity
 from avtrack.io.mot import MOTData
 from avtrack.io.persons import PersonsTable
 from avtrack.io.rttm import RTTMSegment
+from avtrack.localize.base import HeatMaps
 from avtrack.localize.grid import DirectionGrid
 from avtrack.metrics.mot import box_iou
 from avtrack.visual.ovbt import OVBTConfig, track_mot
@@ -65,7 +69,8 @@ class PersonsResult:
         Whether the person of each row of ``tracks`` speaks at that frame.
     persons : PersonsTable
     speech : list of RTTMSegment
-        Speaker turns (labels ``P<person id>``).
+        Speaker turns (labels ``P<person id>``; with the voice activity detector also
+        ``U<n>``, speech from a direction no tracked person stands at).
     n_frames : int
     fps : float
     fov : (float, float)
@@ -174,6 +179,9 @@ def track_persons(
     diarization_gap: float = 0.4,
     diarization_min: float = 0.3,
     min_speaker_s: float = 1.0,
+    heat: HeatMaps | None = None,
+    grid: DirectionGrid | None = None,
+    activity: VoiceActivity | None = None,
 ) -> PersonsResult:
     """Track persons through a recording (see the module docstring).
 
@@ -199,6 +207,12 @@ def track_persons(
     min_speaker_s : float
         Persons with less speech than this in all are not reported as speakers (a short-lived
         duplicate or a burst of reverberation rather than a talker).
+    heat, grid, activity : optional
+        The localizer's heat maps (the ones ``peaks`` came from), their grid and the voice
+        activity of the recording (:func:`avtrack.av.vad.voice_activity`): given all three,
+        the speaker turns are the tracker's refined at the heat maps' frame rate by the voice
+        activity and each person's directional evidence (:func:`avtrack.av.vad.fuse_speaking`);
+        without them, the tracker's turns at the video frame rate.
     """
     if peaks is not None and len(peaks) < n_frames:
         raise ValueError(f"audio peaks cover {len(peaks)} frames, the recording has {n_frames}")
@@ -257,6 +271,8 @@ def track_persons(
             persons.frames, persons.ids, persons.speaking >= tracker.config.speaking_threshold,
             fps, max_gap=diarization_gap, min_duration=diarization_min,
         )
+        if heat is not None and grid is not None and activity is not None:
+            speech = _fused_speech(persons, speech, heat, grid, activity)
         total: dict[str, float] = {}
         for seg in speech:
             total[seg.speaker] = total.get(seg.speaker, 0.0) + seg.duration
@@ -266,6 +282,31 @@ def track_persons(
     return PersonsResult(tracks, speaking, persons, speech, n_frames, fps,
                          fov if fov is not None else (0.0, float(w)),
                          (geometry.image_size[0], geometry.image_size[1]), timing)
+
+
+def _fused_speech(
+    persons: PersonsTable, turns: list[RTTMSegment], heat: HeatMaps, grid: DirectionGrid,
+    activity: VoiceActivity,
+) -> list[RTTMSegment]:
+    """The tracker's ``turns`` refined by the voice activity at the heat maps' frame rate."""
+    from avtrack.av.vad import activity_segments, fuse_speaking, unclaimed_speakers
+
+    t_row = (persons.frames - 1) / persons.fps
+    in_turn = np.zeros(len(persons), dtype=bool)
+    for seg in turns:
+        rows = persons.ids == int(seg.speaker[1:])
+        in_turn |= rows & (t_row >= seg.start) & (t_row < seg.start + seg.duration)
+    w = heat.weights
+    if grid.n_elevations > 1:  # the azimuth profile: sum over elevations
+        w = w.reshape(len(heat), grid.n_elevations, grid.n_azimuths).sum(axis=1)
+    time_s, ids, speaking = fuse_speaking(
+        persons, in_turn, w, heat.time_s, grid.azimuth_values, activity)
+    centres, unseen = unclaimed_speakers(
+        persons, speaking, w, heat.time_s, grid.azimuth_values, activity)
+    return sorted(
+        activity_segments(time_s, ids, speaking)
+        + activity_segments(time_s, np.arange(1, centres.size + 1), unseen, label="U{}"),
+        key=lambda s: (s.start, s.speaker))
 
 
 def scene_geometry(scene) -> CameraGeometry:
@@ -284,29 +325,41 @@ def scene_geometry(scene) -> CameraGeometry:
     return CameraGeometry.from_scenario(scene.scenario, cam)
 
 
-def localize_scene(
-    scene, array: MicArray, n_frames: int, localizer: str = PERSONS_LOCALIZER
-) -> tuple[list[np.ndarray], float]:
-    """Audio peaks of a scene's recording per video frame (heat maps of the registered
-    ``localizer``, peaks at or above :func:`audio_peak_floor`), and the localizer grid's
-    azimuth span in degrees."""
+def scene_heat_maps(
+    scene, array: MicArray, localizer: str = PERSONS_LOCALIZER
+) -> tuple[HeatMaps, DirectionGrid]:
+    """Heat maps of the registered ``localizer`` on a scene's recording (resampled to the
+    STFT's 16 kHz as ``avtrack localize`` does), and their grid."""
     from avtrack.localize import make_localizer
 
     grid = localizer_grid(array)
     loc = make_localizer(localizer, array, grid)
     audio = scene.audio
-    if scene.fs != loc.fs:  # as `avtrack localize` does: resample to the STFT's 16 kHz
+    if scene.fs != loc.fs:
         from fractions import Fraction
 
         import scipy.signal
 
         ratio = Fraction(loc.fs, int(scene.fs))
         audio = scipy.signal.resample_poly(audio, ratio.numerator, ratio.denominator, axis=1)
-    heat = loc.run(audio)
-    span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
+    return loc.run(audio), grid
+
+
+def grid_span(grid: DirectionGrid) -> float:
+    """Span in degrees of a localizer grid's azimuths (360 when circular)."""
+    return 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
+
+
+def localize_scene(
+    scene, array: MicArray, n_frames: int, localizer: str = PERSONS_LOCALIZER
+) -> tuple[list[np.ndarray], float]:
+    """Audio peaks of a scene's recording per video frame (heat maps of the registered
+    ``localizer``, peaks at or above :func:`audio_peak_floor`), and the localizer grid's
+    azimuth span in degrees."""
+    heat, grid = scene_heat_maps(scene, array, localizer)
     peaks = audio_peaks(heat.weights, heat.time_s, grid, scene.fps, n_frames,
                         floor=audio_peak_floor(localizer))
-    return peaks, span
+    return peaks, grid_span(grid)
 
 
 def track_scene_persons(
@@ -319,19 +372,33 @@ def track_scene_persons(
     peaks: list[np.ndarray] | None = None,
     span: float = 360.0,
     localizer: str = PERSONS_LOCALIZER,
+    heat: HeatMaps | None = None,
+    vad: bool | None = None,
 ) -> PersonsResult:
     """:func:`track_persons` on a loaded scene directory
     (:func:`avtrack.io.scene.load_scene`); ``peaks`` reuses audio peaks computed before
-    (with their grid ``span``), else the heat maps of ``localizer`` give them
-    (:func:`localize_scene`)."""
+    (with their grid ``span``, and ``heat`` the heat maps they came from), else the heat maps
+    of ``localizer`` give them (:func:`localize_scene`).
+
+    ``vad``: refine the speaker turns with the voice activity of microphone 0
+    (:mod:`avtrack.av.vad`); None (default) when the detector is installed, with a warning
+    when it is not; it needs the heat maps (computed here, or ``heat`` with ``peaks``).
+    """
     from avtrack.audio.arrays import load_array
+    from avtrack.av.vad import vad_available, voice_activity, warn_vad_missing
     from avtrack.av.vavit import fov_strip, restrict_fov
 
     geometry = scene_geometry(scene)
     fov = fov_strip(scene.image_size[0], fov_fraction)
     dets, app = restrict_fov(scene.detections, scene.appearance, fov)
+    if vad is None:
+        vad = vad_available()
+        if use_audio and not vad:
+            warn_vad_missing()
     t0 = time.perf_counter()
-    if use_audio and peaks is None:
+    grid: DirectionGrid | None = None
+    activity: VoiceActivity | None = None
+    if use_audio and (peaks is None or (vad and heat is not None)):
         array = load_array(scene.path / "array.json")
         if array.n_mics != scene.audio.shape[0]:
             from avtrack.errors import InputError
@@ -340,11 +407,19 @@ def track_scene_persons(
                 f"audio has {scene.audio.shape[0]} channels, array.json has {array.n_mics} "
                 f"microphones", scene.path / "audio.wav",
             )
-        peaks, span = localize_scene(scene, array, scene.n_frames, localizer)
+        grid = localizer_grid(array)
+        if peaks is None:
+            heat, grid = scene_heat_maps(scene, array, localizer)
+            span = grid_span(grid)
+            peaks = audio_peaks(heat.weights, heat.time_s, grid, scene.fps, scene.n_frames,
+                                floor=audio_peak_floor(localizer))
+        if vad:
+            activity = voice_activity(scene.audio[0], int(scene.fs))
     t_loc = time.perf_counter() - t0
     res = track_persons(
         dets, app, peaks if use_audio else None, geometry, scene.fps, scene.n_frames,
         visual_config=visual_config, config=config, fov=fov, azimuth_span_deg=span,
+        heat=heat, grid=grid, activity=activity,
     )
     res.timing["localization"] = t_loc
     return res

@@ -64,7 +64,8 @@ Outputs: OUT_DIR/tracks.txt (MOTChallenge results of the head boxes of persons s
 image, confidence = visibility probability), OUT_DIR/persons.csv (every tracked person every
 frame: frame,time_s,id,azimuth_deg,elevation_deg,x,y,in_view,speaking; x,y and in_view
 only while the camera shows the person: in the image and seen in the last 0.1 s),
-OUT_DIR/speech.rttm (who speaks when, speakers P<person id>; not with --no-audio),
+OUT_DIR/speech.rttm (who speaks when, speakers P<person id>, and U<n> for speech from a
+direction where no person is tracked; not with --no-audio),
 OUT_DIR/voices/<id>.wav (--voices: each person's voice; score them with avtrack eval voices),
 OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
 image --plot); with --video (a recording of your own, AV16.3), OUT_DIR/index.html and
@@ -110,9 +111,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 Variational audio-visual tracking and diarization of several speakers. By default persons
 live in directions from the microphone array (the camera's view a window inside them):
 head detections enter through the camera geometry, DP-RTF + EG audio peaks directly, so a
-person out of view stays tracked while heard and a talker never seen gets a track.
---model image: the thesis's image-plane model (ch. 4) with a learned GLLiM mapping.
-SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
+person out of view stays tracked while heard and a talker never seen gets a track. Speaker
+turns: who the tracker hears, refined at the audio's 8 ms frames by a voice activity detector
+(webrtcvad) and each person's share of the frame's directional energy (--no-vad: the
+tracker's 40 ms turns only). --model image: the thesis's image-plane model (ch. 4) with a
+learned GLLiM mapping. SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
         epilog=EXAMPLES,
     )
     p.add_argument("scene", type=Path, metavar="SCENE_DIR", nargs="?",
@@ -214,6 +217,12 @@ SCENE_DIR is a scene directory as written by 'avtrack simulate'.""",
         help="--model direction with audio: also write OUT_DIR/voices/<id>.wav, each person's "
         "speech alone (an MVDR beamformer of the array's microphones steered at the person's "
         "tracked direction, silent outside their speaker turns; as microphone 0 hears it)",
+    )
+    p.add_argument(
+        "--no-vad", action="store_true",
+        help="--model direction: speaker turns from the tracker's speaking probability at the "
+        "video frame rate only (by default they are refined at the audio's 8 ms frames by a "
+        "voice activity detector, webrtcvad, when it is installed)",
     )
     p.add_argument(
         "--config", type=Path, metavar="FILE.yaml",
@@ -394,7 +403,8 @@ def run_direction(args: argparse.Namespace) -> int:
     try:
         with progress.activity(f"tracking {scene.n_frames} frames", args.quiet):
             res = track_scene_persons(
-                scene, fov_fraction=args.fov_fraction, config=config
+                scene, fov_fraction=args.fov_fraction, config=config,
+                vad=False if args.no_vad else None,
             )
     except InputError:
         raise
@@ -535,6 +545,7 @@ def run_recording(args: argparse.Namespace) -> int:
                 appearance = detection_histograms(iter_frames(video.path, video), dets,
                                                   n_frames)
     peaks, span = None, 360.0
+    heat = grid = activity = None
     if not args.no_audio:
         if args.doa is not None:
             from avtrack.io.doa import azimuths_per_frame, read_doa_csv
@@ -552,6 +563,14 @@ def run_recording(args: argparse.Namespace) -> int:
             peaks = audio_peaks(heat.weights, heat.time_s, grid, fps, n_frames,
                                 floor=audio_peak_floor(PERSONS_LOCALIZER))
             span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
+            if not args.no_vad:
+                from avtrack.audio.recording import FS
+                from avtrack.av.vad import vad_available, voice_activity, warn_vad_missing
+
+                if vad_available():
+                    activity = voice_activity(audio[0], FS)
+                else:
+                    warn_vad_missing()
     if peaks is not None:
         camera = _calibrate(args, camera, dets, peaks, fps, image_size, n_frames)
     if camera is None:
@@ -566,7 +585,8 @@ def run_recording(args: argparse.Namespace) -> int:
     res, elapsed = _track_and_write(
         out, f"tracking {n_frames} frames", args.quiet, peaks is not None,
         lambda: track_persons(dets, appearance, peaks, geometry, fps, n_frames,
-                              visual_config=vcfg, config=config, azimuth_span_deg=span))
+                              visual_config=vcfg, config=config, azimuth_span_deg=span,
+                              heat=heat, grid=grid, activity=activity))
     if args.voices:
         if audio is None:
             raise InputError("--voices needs --audio with --array (the microphones to beamform)")

@@ -1,0 +1,181 @@
+"""Voice activity detection and its fusion with the person tracker's directional evidence."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from avtrack.audio.stft import FRAME_HOP_S
+from avtrack.av import vad as V
+from avtrack.io.persons import PersonsTable
+from avtrack.simulate.speech import synthetic_speech
+
+FS = 16000
+
+
+def test_voice_activity_tells_speech_from_silence():
+    pytest.importorskip("webrtcvad")
+    rng = np.random.default_rng(0)
+    speech = synthetic_speech(2.0, FS, rng, f0=140.0)
+    x = np.concatenate([speech, np.zeros(2 * FS), speech])
+    x += 1e-3 * rng.standard_normal(x.size)  # a quiet noise floor, 60 dB under the speech
+    act = V.voice_activity(x, FS)
+    assert act.frame_s == 0.01 and act.speech.size == 600
+    t = act.time_s
+    assert act.speech[(t > 0.2) & (t < 1.8)].mean() > 0.8
+    assert act.speech[(t > 4.2) & (t < 5.8)].mean() > 0.8
+    assert act.speech[(t > 2.3) & (t < 3.7)].mean() < 0.05
+    # at arbitrary times (the 8 ms audio frames): the 10 ms frame containing each
+    np.testing.assert_array_equal(act.at(np.array([1.0, 3.0, -1.0, 99.0])),
+                                  [True, False, False, False])
+    with pytest.raises(ValueError, match="aggressiveness"):
+        V.voice_activity(x, FS, aggressiveness=4)
+
+
+def _two_person_case(hop: float = FRAME_HOP_S):
+    """Persons 1 (-30 deg) and 2 (+30 deg) for 3 s at 25 fps; 1 talks over [0.504, 2.0) s, 2
+    over [1.5, 2.704) s (overlapping half a second). Heat maps at 8 ms put the frame's mass on
+    whoever talks (split in the overlap, spread uniformly in silence); the voice activity is
+    the union of the turns at 10 ms; the tracker heard each in its turns' video frames."""
+    fps, n_f = 25.0, 75
+    turns = {1: (0.504, 2.0), 2: (1.5, 2.704)}
+    az_of = {1: -30.0, 2: 30.0}
+    frames = np.repeat(np.arange(1, n_f + 1), 2)
+    ids = np.tile([1, 2], n_f)
+    az = np.array([az_of[i] for i in ids.tolist()])
+    t_row = (frames - 1) / fps
+    heard = np.array([turns[i][0] <= t < turns[i][1] for i, t in zip(ids, t_row, strict=True)])
+    persons = PersonsTable(frames, ids, az, np.zeros(az.size), np.full((az.size, 2), np.nan),
+                           np.ones(az.size, bool), heard.astype(float), fps)
+    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
+    t_heat = np.arange(round(3.0 / hop)) * hop + hop / 2
+    w = np.full((t_heat.size, grid.size), 1.0 / grid.size)
+    talking = np.stack([(t_heat >= turns[i][0]) & (t_heat < turns[i][1]) for i in (1, 2)], 1)
+    for j in np.flatnonzero(talking.any(axis=1)):
+        w[j] = 0.0
+        who = [i for i in (1, 2) if talking[j, i - 1]]
+        for i in who:
+            w[j, np.argmin(np.abs(grid - az_of[i]))] = 1.0 / len(who)
+    t_vad = (np.arange(300) + 0.5) * 0.01
+    speech = np.zeros(t_vad.size, bool)
+    for a, b in turns.values():
+        speech |= (t_vad >= a) & (t_vad < b)
+    act = V.VoiceActivity(t_vad, speech, 0.01)
+    return persons, heard, w, t_heat, grid, act, turns
+
+
+def test_fusion_keeps_an_overlapping_turn_and_gives_each_voice_its_person():
+    persons, heard, w, t_heat, grid, act, _turns = _two_person_case()
+    t, ids, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+    np.testing.assert_array_equal(ids, [1, 2])
+    overlap = (t > 1.62) & (t < 1.9)
+    assert speaking[overlap].all()  # both talk: overlapped speech kept
+    alone1 = (t > 0.72) & (t < 1.38)
+    assert speaking[alone1, 0].all() and not speaking[alone1, 1].any()
+    alone2 = (t > 2.12) & (t < 2.6)
+    assert speaking[alone2, 1].all() and not speaking[alone2, 0].any()
+    assert not speaking[(t < 0.4) | (t > 2.9)].any()  # silence: nobody
+    # the voice activity alone makes no speaker: a person the tracker never heard stays silent
+    _, _, none = V.fuse_speaking(persons, np.zeros_like(heard), w, t_heat, grid, act)
+    assert not none.any()
+
+
+def test_speech_from_where_nobody_is_tracked_is_an_unseen_speaker():
+    """A voice at +45 deg, where no person is tracked, that the tracker gave to the person at
+    +30 deg (its peaks close enough to theirs): the fusion gives it to nobody, and the
+    unclaimed speech is one speaker at +45 deg."""
+    hop, fps, n_f = FRAME_HOP_S, 25.0, 75
+    frames = np.arange(1, n_f + 1)
+    persons = PersonsTable(frames, np.ones(n_f, int), np.full(n_f, 30.0), np.zeros(n_f),
+                           np.full((n_f, 2), np.nan), np.ones(n_f, bool), np.ones(n_f), fps)
+    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
+    t_heat = np.arange(round(3.0 / hop)) * hop + hop / 2
+    w = np.full((t_heat.size, grid.size), 1.0 / grid.size)
+    voice = (t_heat >= 0.5) & (t_heat < 2.5)
+    w[voice] = 0.0
+    w[voice, np.argmin(np.abs(grid - 45.0))] = 1.0
+    t_vad = (np.arange(300) + 0.5) * 0.01
+    act = V.VoiceActivity(t_vad, (t_vad >= 0.5) & (t_vad < 2.5), 0.01)
+    t, _ids, speaking = V.fuse_speaking(persons, np.ones(n_f, bool), w, t_heat, grid, act)
+    assert not speaking.any()
+    centres, unseen = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
+    np.testing.assert_array_equal(centres, [45.0])
+    inner = (t > 0.62) & (t < 2.38)
+    assert unseen[inner, 0].all() and not unseen[(t < 0.4) | (t > 2.6), 0].any()
+    segs = V.activity_segments(t, np.arange(1, 2), unseen, label="U{}")
+    assert [s.speaker for s in segs] == ["U1"] and abs(segs[0].duration - 2.0) < 0.15
+    # from where the person stands, the same voice is theirs
+    w2 = np.roll(w, -3, axis=1)  # +45 -> +30 deg
+    _, _, mine = V.fuse_speaking(persons, np.ones(n_f, bool), w2, t_heat, grid, act)
+    assert mine[inner, 0].all()
+
+
+def test_turn_boundaries_are_refined_at_the_audio_frame_rate():
+    """Turns start and end on the 8 ms audio frames, within a frame of the truth where speech
+    starts or stops (0.504 s and 2.704 s are not on the video's 40 ms grid, the tracker's
+    turns are)."""
+    persons, heard, w, t_heat, grid, act, turns = _two_person_case()
+    t, ids, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+    segs = V.activity_segments(t, ids, speaking)
+    by = {s.speaker: s for s in segs}
+    assert set(by) == {"P1", "P2"} and len(segs) == 2
+    p1, p2 = by["P1"], by["P2"]
+    # boundaries next to silence: the voice activity's, within one 8 ms frame (+ rounding)
+    assert abs(p1.start - turns[1][0]) <= 0.012
+    assert abs(p2.start + p2.duration - turns[2][1]) <= 0.012
+    # boundaries inside speech (the overlap's): the directional evidence's, smoothed over
+    # smooth_s = 0.2 s, within half of it
+    assert abs(p2.start - turns[2][0]) <= 0.1
+    assert abs(p1.start + p1.duration - turns[1][1]) <= 0.1
+    # frame j covers [t_j - hop/2, t_j + hop/2): boundaries on the 8 ms grid
+    for s in segs:
+        for edge in (s.start, s.start + s.duration):
+            assert abs(edge / FRAME_HOP_S - round(edge / FRAME_HOP_S)) < 1e-6
+    # pauses of a person up to max_gap are bridged, longer ones split the turn
+    mask = np.zeros((120, 1), bool)
+    mask[10:40] = mask[60:90] = True  # 0.24 s turns, 0.16 s apart
+    tt = (np.arange(120) + 0.5) * FRAME_HOP_S
+    assert len(V.activity_segments(tt, np.array([7]), mask, max_gap=0.2)) == 1
+    assert len(V.activity_segments(tt, np.array([7]), mask, max_gap=0.1)) == 2
+
+
+def test_missing_detector_is_said_and_raises_a_clear_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "webrtcvad", None)  # import webrtcvad -> ImportError
+    assert not V.vad_available()
+    with pytest.raises(ImportError, match="pip install webrtcvad-wheels"):
+        V.voice_activity(np.zeros(FS), FS)
+    with pytest.warns(RuntimeWarning, match="voice activity detector not installed"):
+        V.warn_vad_missing()
+
+
+@pytest.mark.slow
+def test_without_the_detector_track_av_keeps_the_trackers_turns(monkeypatch):
+    """With the detector's import failing, the default pipeline warns and gives exactly the
+    turns of ``vad=False`` (the tracker's speaking probability at the video frame rate); with
+    it, the turns are refined on 8 ms frames."""
+    from avtrack.audio.arrays import load_array
+    from avtrack.av.persons_scene import (
+        audio_peaks,
+        grid_span,
+        scene_heat_maps,
+        track_scene_persons,
+    )
+    from avtrack.io.scene import load_scene
+    from tests.av.scenes import out_of_image
+
+    scene = load_scene(out_of_image())
+    heat, grid = scene_heat_maps(scene, load_array(scene.path / "array.json"))
+    peaks = audio_peaks(heat.weights, heat.time_s, grid, scene.fps, scene.n_frames)
+    kw = {"peaks": peaks, "span": grid_span(grid), "heat": heat}
+    before = track_scene_persons(scene, vad=False, **kw).speech
+    assert before
+    if V.vad_available():
+        fused = track_scene_persons(scene, **kw).speech
+        assert fused != before
+        assert any(abs(s.start * 25 - round(s.start * 25)) > 1e-6 for s in fused)
+    monkeypatch.setitem(sys.modules, "webrtcvad", None)
+    with pytest.warns(RuntimeWarning, match="pip install webrtcvad-wheels"):
+        fallback = track_scene_persons(scene, **kw).speech
+    assert fallback == before
