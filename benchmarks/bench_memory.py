@@ -2,12 +2,14 @@
 
 Builds long 4-microphone recordings by repeating the shared real ReSpeaker recordings (all
 six files one after the other, as many times as needed; 16-bit PCM like the originals), runs
-``avtrack localize`` and ``avtrack track-audio`` on each length in a fresh process, and prints
-the process's peak resident memory (``ru_maxrss``) with the ratio of each length's peak to the
-shortest one's. An 8-microphone recording is made the same way from a free-field simulation
+``avtrack localize``, ``avtrack track-audio`` and ``avtrack track-av`` (a recording of one's own:
+the WAV, head detections at 25 fps and a camera file) on each length in a fresh process, and
+prints the process's peak resident memory (``ru_maxrss``) with the ratio of each length's peak
+to the shortest one's. An 8-microphone recording is made the same way from a free-field simulation
 when ``--eight`` is given.
 
     python benchmarks/bench_memory.py --minutes 1 10
+    python benchmarks/bench_memory.py --minutes 1 10 --commands track-av
     python benchmarks/bench_memory.py --minutes 1 20 --eight
 
 A length's peak should be close to the shortest one's: the commands read the audio in blocks
@@ -53,6 +55,50 @@ def build(out: Path, sources: list[np.ndarray], fs: int, minutes: float) -> Path
     return out
 
 
+#: Frame rate of the detections of ``track-av``.
+FPS = 25.0
+
+#: The camera of ``track-av``, in the array's frame, where the detections' heads agree with the
+#: ReSpeaker recordings' talkers (no warning from the camera check).
+CAMERA_YAML = """\
+fx: 554.3
+fy: 554.3
+cx: 320.0
+cy: 240.0
+width: 640
+height: 480
+position: [0.0, 0.0, 0.05]
+yaw_deg: -160.0
+pitch_deg: 20.0
+"""
+
+
+def write_detections(out: Path, minutes: float) -> Path:
+    """MOTChallenge detections of two heads swaying slowly at 25 fps for ``minutes``."""
+    n = round(minutes * 60 * FPS)
+    f = np.arange(1, n + 1)
+    sway = 40.0 * np.sin(2 * np.pi * f / (FPS * 12.0))
+    with open(out, "w") as fh:
+        for k, dx in zip(f.tolist(), sway.tolist(), strict=True):
+            for x0 in (180.0, 420.0):
+                fh.write(f"{k},-1,{x0 + dx:.1f},150.0,60.0,80.0,0.9,-1,-1,-1\n")
+    return out
+
+
+def command_argv(command: str, wav: Path, array, work: Path, minutes: float) -> list[str]:
+    """The ``avtrack`` command line measured for ``command`` on ``wav``."""
+    if command == "track-av":
+        det = write_detections(work / f"det-{minutes:g}.txt", minutes)
+        cam = work / "camera.yaml"
+        cam.write_text(CAMERA_YAML)
+        return ["track-av", "--audio", str(wav), "--array", str(array), "--detections",
+                str(det), "--fps", f"{FPS:g}", "--camera", str(cam), "-o",
+                str(work / f"av-{minutes:g}"), "--quiet", "--force"]
+    extra = ["--tracker", "vonmises"] if command == "track-audio" else []
+    return [command, str(wav), "--array", str(array), "-o", str(work / "out.csv"), "--quiet",
+            "--force", *extra]
+
+
 def run(argv: list[str]) -> tuple[float, float]:
     """Peak RSS (MB) and wall time (s) of ``avtrack argv`` in a fresh process."""
     proc = subprocess.run([sys.executable, "-c", CHILD, *argv], capture_output=True, text=True,
@@ -92,7 +138,8 @@ def eight_sources() -> tuple[list[np.ndarray], int, str]:
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--minutes", type=float, nargs="+", default=[1.0, 10.0])
-    p.add_argument("--commands", nargs="+", default=["localize", "track-audio"])
+    p.add_argument("--commands", nargs="+", default=["localize", "track-audio", "track-av"],
+                   choices=["localize", "track-audio", "track-av"])
     p.add_argument("--eight", action="store_true", help="also an 8-microphone recording")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
@@ -107,9 +154,7 @@ def main(argv: list[str] | None = None) -> int:
                 first = None
                 for minutes in args.minutes:
                     wav = build(work / f"rec-{minutes:g}.wav", sources, fs, minutes)
-                    extra = ["--tracker", "vonmises"] if command == "track-audio" else []
-                    peak, wall = run([command, str(wav), "--array", str(array), "-o",
-                                      str(work / "out.csv"), "--quiet", "--force", *extra])
+                    peak, wall = run(command_argv(command, wav, array, work, minutes))
                     first = first or peak
                     print(f"| {label} | {command} | {minutes:g} | {peak:.0f} | "
                           f"{peak / first:.2f} | {wall:.0f} | {wall / (60 * minutes):.3f} |",

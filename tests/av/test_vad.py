@@ -179,3 +179,140 @@ def test_without_the_detector_track_av_keeps_the_trackers_turns(monkeypatch):
     with pytest.warns(RuntimeWarning, match="pip install webrtcvad-wheels"):
         fallback = track_scene_persons(scene, **kw).speech
     assert fallback == before
+
+
+# ------------------------------------------------------------------- block-wise and lean forms
+
+
+@pytest.mark.parametrize("n", [0, 1, 2, 3, 999, 1000, 1001, 1002, 16000, 123457])
+def test_amplitude_level_is_numpys_percentile_from_blocks(n):
+    rng = np.random.default_rng(n)
+    x = rng.standard_normal(n) * rng.uniform(0.1, 2.0)
+    x[rng.random(n) < 0.2] = 0.25  # ties
+    expected = float(np.percentile(np.abs(x), V.LEVEL_PERCENTILE)) if n else 0.0
+    for size in (1, 7, 160, max(n, 1)):
+        level = V.AmplitudeLevel(n)
+        for i in range(0, n, size):
+            level.add(x[i : i + size])
+        assert level.value() == expected  # exactly
+    for q in (0.0, 50.0, 99.0, 100.0):
+        level = V.AmplitudeLevel(n, q)
+        level.add(x)
+        assert level.value() == (float(np.percentile(np.abs(x), q)) if n else 0.0)
+
+
+def test_amplitude_level_bad_input():
+    with pytest.raises(ValueError, match="n_samples must be an integer >= 0, got -1"):
+        V.AmplitudeLevel(-1)
+    with pytest.raises(ValueError, match="percentile must be in"):
+        V.AmplitudeLevel(10, 101.0)
+    level = V.AmplitudeLevel(3)
+    level.add(np.ones(2))
+    with pytest.raises(ValueError, match="2 of the 3 samples"):
+        level.value()
+    with pytest.raises(ValueError, match="more than the 3 samples"):
+        level.add(np.ones(2))
+
+
+def test_voice_activity_in_blocks_is_the_whole_signals():
+    pytest.importorskip("webrtcvad")
+    rng = np.random.default_rng(3)
+    speech = synthetic_speech(1.5, FS, rng, f0=120.0)
+    x = np.concatenate([speech, np.zeros(FS + 37), speech[: FS // 2]])
+    x += 1e-3 * rng.standard_normal(x.size)
+    whole = V.voice_activity(x, FS)
+    level = V.AmplitudeLevel(x.size)
+    level.add(x)
+    for size in (161, 1000, 64000):
+        blocks = (x[i : i + size] for i in range(0, x.size, size))
+        act = V.voice_activity_blocks(blocks, level.value())
+        np.testing.assert_array_equal(act.speech, whole.speech)
+        np.testing.assert_array_equal(act.time_s, whole.time_s)
+
+
+def _dense_fusion(persons, heard, w, t_heat, grid, act, window_deg=10.0, smooth_s=0.2,
+                  share=0.6, min_mass=0.05, margin_s=0.3, hop_s=FRAME_HOP_S):
+    """:func:`V.fuse_speaking` written over whole ``(frames, persons, directions)`` arrays."""
+    from scipy.ndimage import binary_dilation, uniform_filter1d
+
+    ids = np.unique(persons.ids)
+    az = np.stack([V._person_azimuth(persons, int(p), t_heat) for p in ids], axis=1)
+    alive = np.isfinite(az)
+    diff = np.abs((grid[None, None, :] - np.nan_to_num(az)[:, :, None] + 180.0) % 360.0 - 180.0)
+    mass = np.where(alive, np.einsum("ja,jna->jn", w, (diff <= window_deg).astype(float)), 0.0)
+    k = max(1, round(smooth_s / hop_s))
+    mass = uniform_filter1d(mass, size=k, axis=0, mode="nearest")
+    frame_of = np.floor(t_heat * persons.fps + 0.5).astype(np.int64) + 1
+    was_heard = np.zeros((int(frame_of.max()) + 2, ids.size), bool)
+    for f, p, s in zip(persons.frames, persons.ids, heard, strict=True):
+        if s:
+            was_heard[f, int(np.flatnonzero(ids == p)[0])] = True
+    r = round(margin_s / hop_s)
+    cand = binary_dilation(was_heard[np.clip(frame_of, 0, was_heard.shape[0] - 1)],
+                           structure=np.ones((2 * r + 1, 1), bool)) & alive
+    near = (np.abs((grid[:, None] - grid[None, :] + 180.0) % 360.0 - 180.0) <= window_deg)
+    peak = uniform_filter1d(w @ near.astype(float), size=k, axis=0, mode="nearest").max(axis=1)
+    top = np.maximum(np.where(cand, mass, 0.0).max(axis=1), peak)[:, None]
+    return (cand & (mass >= share * top) & (mass >= min_mass)) & act.at(t_heat)[:, None]
+
+
+def _random_scene(seed: int, n_persons: int, seconds: float):
+    """Persons walking at random, born and dying at random, with random speaking flags;
+    random heat maps over a circular 5-degree grid and random voice activity."""
+    rng = np.random.default_rng(seed)
+    fps = 25.0
+    rows = []
+    for pid in range(1, n_persons + 1):
+        start = int(rng.integers(1, int(seconds * fps) - 2))
+        stop = int(rng.integers(start + 1, int(seconds * fps) + 1))
+        f = np.arange(start, stop + 1)
+        a = rng.uniform(-180, 180) + np.cumsum(rng.normal(0, 3, f.size))
+        rows += [(int(fi), pid, float(ai)) for fi, ai in zip(f, a, strict=True)]
+    rows.sort()
+    frames, ids, az = (np.array(c) for c in zip(*rows, strict=True))
+    az = (az + 180.0) % 360.0 - 180.0
+    heard = rng.random(frames.size) < 0.4
+    persons = PersonsTable(frames, ids, az, np.zeros(az.size), np.full((az.size, 2), np.nan),
+                           np.ones(az.size, bool), heard.astype(float), fps)
+    grid = np.arange(72) * 5.0 - 180.0
+    t_heat = np.arange(int(seconds / FRAME_HOP_S)) * FRAME_HOP_S + 0.008
+    w = rng.dirichlet(np.full(grid.size, 0.2), size=t_heat.size)
+    t_vad = (np.arange(int(seconds * 100)) + 0.5) * 0.01
+    act = V.VoiceActivity(t_vad, rng.random(t_vad.size) < 0.7, 0.01)
+    return persons, heard, w, t_heat, grid, act
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_fusion_person_by_person_equals_the_dense_formula(seed, monkeypatch):
+    """The fusion holds one person's and a few directions' values at a time; its decisions
+    are those of the formula over whole (frames, persons, directions) arrays, whatever the
+    chunk sizes."""
+    persons, heard, w, t_heat, grid, act = _random_scene(seed, 6, 12.0)
+    expected = _dense_fusion(persons, heard, w, t_heat, grid, act)
+    assert 0 < expected.sum() < expected.size
+    for values, columns in ((V._CHUNK_VALUES, V._COLUMNS), (72 * 97, 5), (1, 1)):
+        monkeypatch.setattr(V, "_CHUNK_VALUES", values)
+        monkeypatch.setattr(V, "_COLUMNS", columns)
+        _, _, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+        np.testing.assert_array_equal(speaking, expected)
+
+
+def test_unclaimed_speakers_in_column_chunks_equal_the_dense_formula(monkeypatch):
+    from scipy.ndimage import uniform_filter1d
+
+    persons, heard, w, t_heat, grid, act = _random_scene(5, 3, 12.0)
+    w[:, 40:43] += 0.5  # a talker nobody stands at, 20-30 deg
+    _, _, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+    k = round(0.2 / FRAME_HOP_S)
+    smooth = uniform_filter1d(w, size=k, axis=0, mode="nearest")
+    near = np.abs((grid[:, None] - grid[None, :] + 180.0) % 360.0 - 180.0) <= 10.0
+    best = smooth.argmax(axis=1)
+    np.testing.assert_allclose((smooth @ near)[np.arange(best.size), best],
+                               V._strongest_direction(w, near, k)[1], rtol=1e-12)
+    np.testing.assert_array_equal(V._strongest_direction(w, near, k)[0], best)
+    expected = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
+    assert expected[0].size >= 1
+    monkeypatch.setattr(V, "_COLUMNS", 3)
+    centres, unseen = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
+    np.testing.assert_array_equal(centres, expected[0])
+    np.testing.assert_array_equal(unseen, expected[1])

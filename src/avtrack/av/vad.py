@@ -8,7 +8,8 @@ made for speech and refines the turns at the localizer's 8 ms frame rate:
 
 * :func:`voice_activity` runs the WebRTC voice activity detector (the ``webrtcvad`` module of
   the ``webrtcvad-wheels`` package, a GMM speech/noise model over six sub-bands) on one
-  microphone, 10 ms frames at 16 kHz;
+  microphone, 10 ms frames at 16 kHz; :func:`voice_activity_blocks` does the same on a signal
+  read in blocks, its level measured before by :class:`AmplitudeLevel`;
 * :func:`fuse_speaking` says a person speaks in an 8 ms frame when the detector says speech
   there **and** the person's direction carries the frame's directional energy: the heat-map
   mass within ``window_deg`` of the person's tracked azimuth, smoothed over ``smooth_s``, is
@@ -25,12 +26,17 @@ made for speech and refines the turns at the localizer's 8 ms frame rate:
 
 Without the ``webrtcvad`` module (:func:`vad_available` is False) the pipelines keep the
 tracker's 40 ms turns (:func:`~avtrack.av.diarization.speaking_segments`) and say so once.
+
+Memory: besides the heat maps ``(T, A)`` given, the fusion holds arrays of one value (or one
+bit) per audio frame and person, never one per frame, person and direction: the directional
+masses are computed person by person and a few directions at a time.
 """
 
 from __future__ import annotations
 
 import importlib
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,6 +57,13 @@ VAD_MISSING_NOTE = (
 
 _VAD_FS = 16000
 _VAD_FRAME_S = 0.01
+#: The detector's input is scaled so that this percentile of the amplitudes is half of the
+#: 16-bit full scale (the detector's energy floor is absolute).
+LEVEL_PERCENTILE = 99.9
+#: Values per temporary array of the directional masses (memory: 8 bytes each).
+_CHUNK_VALUES = 1 << 17
+#: Directions (heat-map columns) smoothed at a time.
+_COLUMNS = 8
 
 
 def _vad_module():
@@ -107,9 +120,10 @@ def voice_activity(
 ) -> VoiceActivity:
     """WebRTC voice activity of a one-channel signal, 10 ms frames.
 
-    The signal is resampled to 16 kHz and scaled so that its 99.9th amplitude percentile is
-    half of the 16-bit full scale (the detector's energy floor is absolute). Speech runs shorter
-    than ``min_speech_s`` are dropped, then pauses shorter than ``max_pause_s`` bridged.
+    The signal is resampled to 16 kHz and scaled so that its 99.9th amplitude percentile
+    (:data:`LEVEL_PERCENTILE`) is half of the 16-bit full scale (the detector's energy floor is
+    absolute). Speech runs shorter than ``min_speech_s`` are dropped, then pauses shorter than
+    ``max_pause_s`` bridged.
 
     Parameters
     ----------
@@ -124,11 +138,7 @@ def voice_activity(
     ImportError
         When the ``webrtcvad`` module is not installed (:func:`vad_available`).
     """
-    mod = _vad_module()
-    if mod is None:
-        raise ImportError(VAD_MISSING_NOTE)
-    if aggressiveness not in (0, 1, 2, 3):
-        raise ValueError(f"aggressiveness must be 0, 1, 2 or 3, got {aggressiveness!r}")
+    _check_detector(aggressiveness)
     x = np.asarray(signal, dtype=float).reshape(-1)
     if not fs > 0:
         raise ValueError(f"fs must be > 0, got {fs!r}")
@@ -139,16 +149,115 @@ def voice_activity(
 
         ratio = Fraction(_VAD_FS, int(fs))
         x = scipy.signal.resample_poly(x, ratio.numerator, ratio.denominator)
+    top = float(np.percentile(np.abs(x), LEVEL_PERCENTILE)) if x.size else 0.0
+    return voice_activity_blocks([x], top, aggressiveness, min_speech_s, max_pause_s)
+
+
+def voice_activity_blocks(
+    blocks: Iterable[np.ndarray], level: float, aggressiveness: int = 3,
+    min_speech_s: float = 0.03, max_pause_s: float = 0.1,
+) -> VoiceActivity:
+    """:func:`voice_activity` of a 16 kHz signal given in consecutive blocks, whose level (the
+    99.9th amplitude percentile of the whole signal, :class:`AmplitudeLevel`) is known: the
+    same frames and decisions as the whole signal's, with memory of one block.
+
+    Parameters
+    ----------
+    blocks : iterable of ndarray (n_k,)
+        The signal's samples at 16 kHz, in order; any block lengths.
+    level : float
+        ``np.percentile(np.abs(signal), 99.9)`` of the whole signal.
+    aggressiveness, min_speech_s, max_pause_s
+        As :func:`voice_activity`.
+    """
+    mod = _check_detector(aggressiveness)
     n = int(_VAD_FRAME_S * _VAD_FS)
-    m = x.size // n
-    top = float(np.percentile(np.abs(x), 99.9)) if x.size else 0.0
-    pcm = np.clip(x * (0.5 * 32767 / top if top > 0 else 0.0), -32768, 32767)
-    frames = pcm[: m * n].astype("<i2").reshape(m, n)
+    scale = 0.5 * 32767 / level if level > 0 else 0.0
     vad = mod.Vad(int(aggressiveness))
-    speech = np.array([vad.is_speech(f.tobytes(), _VAD_FS) for f in frames], dtype=bool)
+    rest = np.zeros(0)
+    decisions: list[np.ndarray] = []
+    for block in blocks:
+        x = np.asarray(block, dtype=float).reshape(-1)
+        if rest.size:
+            x = np.concatenate([rest, x])
+        m = x.size // n
+        pcm = np.clip(x[: m * n] * scale, -32768, 32767)
+        frames = pcm.astype("<i2").reshape(m, n)
+        decisions.append(np.array([vad.is_speech(f.tobytes(), _VAD_FS) for f in frames],
+                                  dtype=bool))
+        rest = x[m * n :]
+    speech = np.concatenate(decisions) if decisions else np.zeros(0, dtype=bool)
     speech = _close_open(speech, _VAD_FRAME_S, max_pause_s, min_speech_s)
-    time_s = (np.arange(m) + 0.5) * _VAD_FRAME_S
+    time_s = (np.arange(speech.size) + 0.5) * _VAD_FRAME_S
     return VoiceActivity(time_s, speech, _VAD_FRAME_S)
+
+
+def _check_detector(aggressiveness: int):
+    """The ``webrtcvad`` module, after checking ``aggressiveness``."""
+    mod = _vad_module()
+    if mod is None:
+        raise ImportError(VAD_MISSING_NOTE)
+    if aggressiveness not in (0, 1, 2, 3):
+        raise ValueError(f"aggressiveness must be 0, 1, 2 or 3, got {aggressiveness!r}")
+    return mod
+
+
+class AmplitudeLevel:
+    """The level :func:`voice_activity` scales a signal by, ``np.percentile(np.abs(x), 99.9)``
+    (NumPy's default linear interpolation, Hyndman and Fan's definition 7), computed exactly
+    over a signal given in blocks while keeping only its largest amplitudes: about 0.1 % of
+    the samples, plus two.
+
+    Parameters
+    ----------
+    n_samples : int
+        Length of the whole signal (it fixes which order statistics the percentile reads).
+    percentile : float
+        In [0, 100] (default :data:`LEVEL_PERCENTILE`).
+    """
+
+    def __init__(self, n_samples: int, percentile: float = LEVEL_PERCENTILE) -> None:
+        if isinstance(n_samples, bool) or not isinstance(n_samples, int | np.integer) \
+                or n_samples < 0:
+            raise ValueError(f"AmplitudeLevel: n_samples must be an integer >= 0, got "
+                             f"{n_samples!r}")
+        if not 0 <= percentile <= 100:
+            raise ValueError(f"AmplitudeLevel: percentile must be in [0, 100], got "
+                             f"{percentile!r}")
+        self.n_samples = int(n_samples)
+        n = self.n_samples
+        self._virtual = (n - 1) * (percentile / 100)  # position in the sorted sample
+        self._below = min(int(np.floor(self._virtual)), n - 1) if n else 0
+        self._largest = np.zeros(0)  # the n - _below largest amplitudes seen so far
+        self._seen = 0
+
+    def add(self, block: np.ndarray) -> None:
+        """The next samples (any shape; taken in order)."""
+        a = np.abs(np.asarray(block, dtype=float).reshape(-1))
+        self._seen += a.size
+        if self._seen > self.n_samples:
+            raise ValueError(f"AmplitudeLevel: more than the {self.n_samples} samples announced")
+        keep = self.n_samples - self._below
+        both = np.concatenate([self._largest, a])
+        if both.size > keep:
+            both = np.partition(both, both.size - keep)[both.size - keep :]
+        self._largest = both
+
+    def value(self) -> float:
+        """The percentile of every sample's amplitude (0 for an empty signal)."""
+        if self._seen != self.n_samples:
+            raise ValueError(f"AmplitudeLevel: {self._seen} of the {self.n_samples} samples "
+                             "were given")
+        n = self.n_samples
+        if n == 0:
+            return 0.0
+        top = np.sort(self._largest)  # top[0] is the order statistic _below
+        if self._virtual >= n - 1:  # at (or past) the last: the largest value
+            return float(top[-1])
+        a, b = float(top[0]), float(top[1])
+        t = self._virtual - self._below
+        # NumPy's lerp: a + (b - a) t, from the nearer end (b - (b - a)(1 - t) when t >= 1/2)
+        return b - (b - a) * (1 - t) if t >= 0.5 else a + (b - a) * t
 
 
 def _runs(mask: np.ndarray) -> np.ndarray:
@@ -170,22 +279,86 @@ def _close_open(mask: np.ndarray, hop: float, max_gap: float, min_run: float) ->
     return out
 
 
-def _person_azimuths(
-    persons: PersonsTable, time_s: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """Person ids ``(N,)`` and their azimuths at ``time_s``, ``(J, N)`` degrees, linearly
-    interpolated between video frames (unwrapped), NaN outside each person's life."""
-    ids = np.unique(persons.ids)
-    az = np.full((time_s.size, ids.size), np.nan)
+def _person_azimuth(persons: PersonsTable, pid: int, time_s: np.ndarray) -> np.ndarray:
+    """Azimuth of person ``pid`` at ``time_s``, ``(J,)`` degrees, linearly interpolated between
+    video frames (unwrapped), NaN outside the person's life."""
     fps = persons.fps
-    for k, pid in enumerate(ids):
-        rows = np.flatnonzero(persons.ids == pid)
-        rows = rows[np.argsort(persons.frames[rows], kind="stable")]
-        t = (persons.frames[rows] - 1) / fps
-        a = np.rad2deg(np.unwrap(np.deg2rad(persons.azimuth_deg[rows])))
-        inside = (time_s >= t[0] - 0.5 / fps) & (time_s < t[-1] + 0.5 / fps)
-        az[inside, k] = np.interp(time_s[inside], t, a)
-    return ids, az
+    az = np.full(time_s.size, np.nan)
+    rows = np.flatnonzero(persons.ids == pid)
+    rows = rows[np.argsort(persons.frames[rows], kind="stable")]
+    t = (persons.frames[rows] - 1) / fps
+    a = np.rad2deg(np.unwrap(np.deg2rad(persons.azimuth_deg[rows])))
+    inside = (time_s >= t[0] - 0.5 / fps) & (time_s < t[-1] + 0.5 / fps)
+    az[inside] = np.interp(time_s[inside], t, a)
+    return az
+
+
+def _near(az_grid: np.ndarray, window_deg: float) -> np.ndarray:
+    """``(A, A)`` bool: the grid's azimuths within ``window_deg`` of each other."""
+    return np.abs((az_grid[:, None] - az_grid[None, :] + 180.0) % 360.0 - 180.0) <= window_deg
+
+
+def _person_mass(
+    w: np.ndarray, az: np.ndarray, az_grid: np.ndarray, window_deg: float, k: int
+) -> np.ndarray:
+    """Heat-map mass within ``window_deg`` of a person's azimuth ``az`` ``(J,)`` (0 outside
+    the person's life), smoothed over ``k`` frames: ``(J,)``. Computed a few hundred frames at
+    a time (memory: frames x directions)."""
+    alive = np.isfinite(az)
+    a = np.nan_to_num(az)
+    mass = np.empty(a.size)
+    rows = max(1, _CHUNK_VALUES // max(az_grid.size, 1))
+    for j0 in range(0, a.size, rows):
+        j1 = j0 + rows
+        diff = np.abs((az_grid[None, :] - a[j0:j1, None] + 180.0) % 360.0 - 180.0)
+        mass[j0:j1] = np.einsum("ja,ja->j", w[j0:j1], (diff <= window_deg).astype(float))
+    mass = np.where(alive, mass, 0.0)
+    return uniform_filter1d(mass, size=k, mode="nearest")
+
+
+def _column_chunks(n: int) -> list[np.ndarray]:
+    """Heat-map columns in groups of :data:`_COLUMNS`."""
+    return [np.arange(c, min(n, c + _COLUMNS)) for c in range(0, n, _COLUMNS)]
+
+
+def _window_peak(w: np.ndarray, near: np.ndarray, k: int) -> np.ndarray:
+    """The strongest direction's mass of each frame ``(J,)``: the maximum over directions of
+    the heat-map mass within the window of each (``near``), smoothed over ``k`` frames.
+
+    A window's mass adds its columns in increasing order; a few directions at a time."""
+    peak = np.full(w.shape[0], -np.inf)
+    for cols in _column_chunks(w.shape[1]):
+        sums = np.zeros((w.shape[0], cols.size))
+        for i, c in enumerate(cols):
+            for src in np.flatnonzero(near[:, c]):
+                sums[:, i] += w[:, src]
+        sums = uniform_filter1d(sums, size=k, axis=0, mode="nearest")
+        np.maximum(peak, sums.max(axis=1), out=peak)
+    return peak
+
+
+def _strongest_direction(w: np.ndarray, near: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Of the heat maps smoothed over ``k`` frames: each frame's strongest direction (the
+    first, on a tie) ``(J,)`` int, and the smoothed mass within its window ``(J,)``, its
+    columns added in increasing order. Two passes over a few directions at a time."""
+    n_frames = w.shape[0]
+    rows = np.arange(n_frames)
+    best = np.zeros(n_frames, dtype=np.int64)
+    best_value = np.full(n_frames, -np.inf)
+    for cols in _column_chunks(w.shape[1]):
+        smooth = uniform_filter1d(w[:, cols], size=k, axis=0, mode="nearest")
+        i = smooth.argmax(axis=1)
+        v = smooth[rows, i]
+        better = (v > best_value) | (np.isnan(v) & ~np.isnan(best_value))  # as argmax
+        best[better] = cols[i[better]]
+        best_value[better] = v[better]
+    mass = np.zeros(n_frames)
+    for cols in _column_chunks(w.shape[1]):
+        smooth = uniform_filter1d(w[:, cols], size=k, axis=0, mode="nearest")
+        for i, c in enumerate(cols):
+            inside = near[c, best]
+            mass[inside] += smooth[inside, i]
+    return best, mass
 
 
 def fuse_speaking(
@@ -250,16 +423,30 @@ def fuse_speaking(
         raise ValueError(f"tracker_speaking has {spk.size} rows, persons {len(persons)}")
     if t_heat.size == 0 or len(persons) == 0:
         return t_heat, np.unique(persons.ids), np.zeros((t_heat.size, 0), dtype=bool)
-    ids, az = _person_azimuths(persons, t_heat)
-    alive = np.isfinite(az)
-    # heat-map mass within window_deg of each person's direction, smoothed over time
-    diff = np.abs((az_grid[None, None, :] - np.nan_to_num(az)[:, :, None] + 180.0) % 360.0
-                  - 180.0)
-    mass = np.einsum("ja,jna->jn", w, (diff <= window_deg).astype(float))
-    mass = np.where(alive, mass, 0.0)
+    ids = np.unique(persons.ids)
     k = max(1, round(smooth_s / hop_s))
-    mass = uniform_filter1d(mass, size=k, axis=0, mode="nearest")
-    # candidates: persons the tracker heard within margin_s
+    cand = _candidates(persons, spk, ids, t_heat, round(margin_s / hop_s))
+    # the strongest mass each person is compared with: the frame's strongest direction's
+    # (frame_peak) or the strongest candidate's
+    top = _window_peak(w, _near(az_grid, window_deg), k) if frame_peak else None
+    for n, pid in enumerate(ids.tolist()):
+        az = _person_azimuth(persons, pid, t_heat)
+        cand[:, n] &= np.isfinite(az)
+        held = np.where(cand[:, n], _person_mass(w, az, az_grid, window_deg, k), 0.0)
+        top = held if top is None else np.maximum(top, held)
+    speaking = np.zeros(cand.shape, dtype=bool)
+    heard_speech = activity.at(t_heat)
+    for n, pid in enumerate(ids.tolist()):  # again: one person's values at a time in memory
+        mass = _person_mass(w, _person_azimuth(persons, pid, t_heat), az_grid, window_deg, k)
+        speaking[:, n] = (cand[:, n] & (mass >= share * top) & (mass >= min_mass)
+                          & heard_speech)
+    return t_heat, ids, speaking
+
+
+def _candidates(
+    persons: PersonsTable, spk: np.ndarray, ids: np.ndarray, t_heat: np.ndarray, r: int
+) -> np.ndarray:
+    """``(J, N)`` bool: persons the tracker heard within ``r`` audio frames."""
     fps = persons.fps
     frame_of = np.floor(t_heat * fps + 0.5).astype(np.int64) + 1  # 1-based video frame
     col = {int(pid): i for i, pid in enumerate(ids.tolist())}
@@ -269,20 +456,9 @@ def fuse_speaking(
         if s and 0 <= f < heard.shape[0]:
             heard[f, col[pid]] = True
     cand = heard[np.clip(frame_of, 0, heard.shape[0] - 1)]
-    r = round(margin_s / hop_s)
     if r > 0:
         cand = binary_dilation(cand, structure=np.ones((2 * r + 1, 1), dtype=bool))
-    cand &= alive
-    if frame_peak:  # the strongest direction's mass, whether a person stands there or not
-        near = np.abs((az_grid[:, None] - az_grid[None, :] + 180.0) % 360.0 - 180.0)
-        peak = uniform_filter1d(w @ (near <= window_deg).astype(float), size=k, axis=0,
-                                mode="nearest").max(axis=1, keepdims=True)
-        top = np.maximum(np.where(cand, mass, 0.0).max(axis=1, keepdims=True), peak)
-    else:
-        top = np.where(cand, mass, 0.0).max(axis=1, keepdims=True)
-    carries = cand & (mass >= share * top) & (mass >= min_mass)
-    speaking = carries & activity.at(t_heat)[:, None]
-    return t_heat, ids, speaking
+    return cand
 
 
 def unclaimed_speakers(
@@ -321,18 +497,16 @@ def unclaimed_speakers(
     hop = float(np.median(np.diff(t_heat))) if t_heat.size > 1 else FRAME_HOP_S
     if t_heat.size == 0:
         return np.zeros(0), np.zeros((0, 0), dtype=bool)
-    near = np.abs((az_grid[:, None] - az_grid[None, :] + 180.0) % 360.0 - 180.0) <= window_deg
+    near = _near(az_grid, window_deg)
     k = max(1, round(smooth_s / hop))
-    smooth = uniform_filter1d(w, size=k, axis=0, mode="nearest")
-    mass = smooth @ near.astype(float)
-    best = smooth.argmax(axis=1)  # the strongest direction (its window's mass below)
+    best, mass = _strongest_direction(w, near, k)  # (its window's mass below)
     peak_az = az_grid[best]
     free = activity.at(t_heat) & ~np.asarray(speaking, dtype=bool).any(axis=1)
-    free &= mass[np.arange(best.size), best] >= min_mass
-    if len(persons):
-        _, az = _person_azimuths(persons, t_heat)
-        d = np.abs((peak_az[:, None] - az + 180.0) % 360.0 - 180.0)
-        free &= ~np.any(np.isfinite(az) & (d <= window_deg), axis=1)
+    free &= mass >= min_mass
+    for pid in np.unique(persons.ids):
+        az = _person_azimuth(persons, int(pid), t_heat)
+        d = np.abs((peak_az - az + 180.0) % 360.0 - 180.0)
+        free &= ~(np.isfinite(az) & (d <= window_deg))
     centres: list[float] = []
     cols: list[np.ndarray] = []
     left = free.copy()
