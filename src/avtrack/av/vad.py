@@ -427,13 +427,14 @@ def fuse_speaking(
     k = max(1, round(smooth_s / hop_s))
     cand = _candidates(persons, spk, ids, t_heat, round(margin_s / hop_s))
     # the strongest mass each person is compared with: the frame's strongest direction's
-    # (frame_peak) or the strongest candidate's
-    top = _window_peak(w, _near(az_grid, window_deg), k) if frame_peak else None
+    # (frame_peak) or the strongest candidate's (masses are >= 0)
+    top = (_window_peak(w, _near(az_grid, window_deg), k) if frame_peak
+           else np.zeros(t_heat.size))
     for n, pid in enumerate(ids.tolist()):
         az = _person_azimuth(persons, pid, t_heat)
         cand[:, n] &= np.isfinite(az)
         held = np.where(cand[:, n], _person_mass(w, az, az_grid, window_deg, k), 0.0)
-        top = held if top is None else np.maximum(top, held)
+        top = np.maximum(top, held)
     speaking = np.zeros(cand.shape, dtype=bool)
     heard_speech = activity.at(t_heat)
     for n, pid in enumerate(ids.tolist()):  # again: one person's values at a time in memory
