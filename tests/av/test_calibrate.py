@@ -120,3 +120,45 @@ def test_check_names_millimetres():
     chk = check_camera(cam, ev)
     assert any("millimetres" in w for w in chk.warnings), chk.warnings
     assert len(chk.warnings) == 1
+
+
+def _dense_search(ev, pitch_deg):
+    """``_search`` written over whole (pairs x yaws) arrays."""
+    import math
+
+    from avtrack.av.calibrate import MATCH_DEG, _starts, predicted_directions
+    from avtrack.io.doa import wrap_azimuth
+
+    starts = _starts(ev.direction)
+    first = ev.azimuth_deg[starts]
+    hist = np.bincount(np.floor(first + 180.0).astype(np.int64) % 360, minlength=360)
+    win = round(MATCH_DEG)
+    near = sum(np.roll(hist, k) for k in range(-win, win + 1)) / max(first.shape[0], 1)
+    yaws = np.arange(-180.0, 180.0, 1.0)
+    best, best_score = (0.0, 1.0, -1), -np.inf
+    for hfov in np.arange(20.0, 151.0, 5.0):
+        f = 0.5 * ev.width / math.tan(math.radians(hfov) / 2.0)
+        g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
+        off = wrap_azimuth(ev.azimuth_deg - g)
+        hit = np.abs(wrap_azimuth(off[:, None] - yaws[None, :])) < MATCH_DEG
+        hits = np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0)
+        cell = np.floor(g[:, None] + yaws[None, :] + 180.0).astype(np.int64) % 360
+        chance = np.minimum(np.add.reduceat(near[cell], starts, axis=0), 1.0).sum(axis=0)
+        score = hits - chance
+        j = int(np.argmax(score))
+        if score[j] > best_score:
+            best_score, best = float(score[j]), (float(yaws[j]), f, int(hits[j]))
+    return best
+
+
+@pytest.mark.parametrize("chunk", [1, 7, 30, 360])
+def test_search_a_few_yaws_at_a_time_is_the_dense_formula(chunk, monkeypatch):
+    """The search holds (pairs x a few yaws) at a time; its choice is that of the formula over
+    whole (pairs x yaws) arrays, exactly."""
+    from avtrack.av import calibrate as C
+
+    for seed, yaw in ((4, -40.0), (5, 120.0)):
+        ev = _recording(_true_camera(yaw=yaw), n_frames=300, outliers=0.3, seed=seed)
+        expected = _dense_search(ev, 0.0)
+        monkeypatch.setattr(C, "_YAW_CHUNK", chunk)
+        assert C._search(ev, 0.0) == expected

@@ -68,6 +68,8 @@ MIN_MATCHES = 25
 
 #: Largest number of (audio direction, box) pairs kept (frames thinned evenly beyond it).
 MAX_PAIRS = 20000
+#: Yaw hypotheses :func:`_search` scores at a time (memory: MAX_PAIRS x this many values).
+_YAW_CHUNK = 30
 
 
 @dataclass(frozen=True)
@@ -243,15 +245,19 @@ def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
         f = 0.5 * ev.width / math.tan(math.radians(hfov) / 2.0)
         g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
         off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
-        hit = np.abs(wrap_azimuth(off[:, None] - yaws[None, :])) < MATCH_DEG
-        hits = np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0)
-        cell = np.floor(g[:, None] + yaws[None, :] + 180.0).astype(np.int64) % 360
-        chance = np.minimum(np.add.reduceat(near[cell], starts, axis=0), 1.0).sum(axis=0)
-        score = hits - chance
+        hits, chance = [], []
+        for y0 in range(0, yaws.size, _YAW_CHUNK):  # (pairs x yaws arrays, a slice at a time)
+            yaw = yaws[None, y0 : y0 + _YAW_CHUNK]
+            hit = np.abs(wrap_azimuth(off[:, None] - yaw)) < MATCH_DEG
+            hits.append(np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0))
+            cell = np.floor(g[:, None] + yaw + 180.0).astype(np.int64) % 360
+            chance.append(np.minimum(np.add.reduceat(near[cell], starts, axis=0), 1.0)
+                          .sum(axis=0))
+        score = np.concatenate(hits) - np.concatenate(chance)
         j = int(np.argmax(score))
         if score[j] > best_score:
             best_score = float(score[j])
-            best = (float(yaws[j]), f, int(hits[j]))
+            best = (float(yaws[j]), f, int(np.concatenate(hits)[j]))
     return best
 
 
