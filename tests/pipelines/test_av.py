@@ -36,8 +36,32 @@ from avtrack.pipelines.av_recording import (
     localize_for_persons,
     track_own_recording,
 )
-from tests.av.scenes import out_of_image, walkout
+from tests.av.scenes import _place, _small_room
 from tests.cli.test_track_av import _recording_files
+
+
+@pytest.fixture(scope="module")
+def scene_dir(tmp_path_factory):
+    """A 5 s scene: person 1 seated in front of the camera, person 2 seated at -75 degrees,
+    out of its view; they take turns talking."""
+    from avtrack.io.scenario import validate_scenario
+    from avtrack.simulate.scene import simulate_scene, write_scene
+
+    raw = {
+        **_small_room("test-pipelines", 7, 5.0, hfov_deg=60.0),
+        "people": [
+            {"id": 1, "motion": {"type": "seated", "position": _place(5.0, 2.0, 1.6),
+                                 "sway": 0.05}},
+            {"id": 2, "motion": {"type": "seated", "position": _place(-75.0, 2.0, 1.6),
+                                 "sway": 0.0}},
+        ],
+        "speech": {"mode": "turn-taking", "utterances": "synthetic", "mean_turn": 1.5,
+                   "mean_pause": 0.3},
+        "noise": {"diffuse_snr_db": 25.0, "fan_snr_db": None},
+        "detector": {"miss_rate": 0.05, "false_alarm_rate": 0.0},
+    }
+    return write_scene(simulate_scene(validate_scenario(raw)),
+                       tmp_path_factory.mktemp("scene") / "small")
 
 
 def _same_run(a: AVRun, b: AVRun) -> None:
@@ -49,46 +73,50 @@ def _same_run(a: AVRun, b: AVRun) -> None:
     assert a.speech == b.speech
 
 
-def test_scene_direction_is_the_librarys_persons_tracker():
-    scene_dir = out_of_image()
-    steps: list[str] = []
+def _recording_step(steps: list[str]):
+    """A ``step`` that records what it is told."""
+    import contextlib
 
     def step(what: str):
         steps.append(what)
-        import contextlib
-
         return contextlib.nullcontext()
 
-    run = track_scene_direction(scene_dir, PersonConfig(), step=step)
+    return step
+
+
+def test_scene_direction_is_the_librarys_persons_tracker(scene_dir):
+    steps: list[str] = []
+    run = track_scene_direction(scene_dir, PersonConfig(), voices=True,
+                                step=_recording_step(steps))
     res = track_scene_persons(load_scene(scene_dir), config=PersonConfig())
     _same_run(run, AVRun(res.tracks, res.speaking, res.persons, res.speech, res.n_frames,
                          res.fps, 0.0, None, FS))
-    assert steps == ["tracking 400 frames"]
-    assert run.voices is None and run.n_persons == len(np.unique(res.persons.ids))
-    assert run.duration_s == pytest.approx(16.0)
+    assert steps == ["tracking 125 frames", f"beamforming {run.n_persons} voices"]
+    assert run.n_persons == len(np.unique(res.persons.ids)) == 2
+    assert run.duration_s == pytest.approx(5.0)
+    assert run.voices is not None and sorted(run.voices) == sorted(np.unique(res.persons.ids))
+    assert run.voices_fs == load_scene(scene_dir).fs
+    assert all(v.shape == (load_scene(scene_dir).audio.shape[1],) for v in run.voices.values())
 
 
-def test_scene_image_without_audio_and_with_a_mapping_file():
-    scene_dir, _, mapping_path = walkout()
-    visual = track_scene_image(scene_dir, VAVITConfig(), use_audio=False, fov_fraction=0.4)
-    assert isinstance(visual, ImageRun)
-    assert visual.speech is None and visual.mapping is None and not visual.mapping_trained
-    assert len(np.unique(visual.tracks.ids)) == 2  # the visual tracker loses the walker
-    heard = track_scene_image(scene_dir, VAVITConfig(), mapping=mapping_path, fov_fraction=0.4)
-    assert heard.speech and not heard.mapping_trained and heard.mapping is not None
+def test_scene_image_without_audio_is_the_visual_tracker(scene_dir):
+    run = track_scene_image(scene_dir, VAVITConfig(), use_audio=False)
+    assert isinstance(run, ImageRun)
+    assert run.speech is None and run.mapping is None and not run.mapping_trained
+    assert np.unique(run.tracks.ids).tolist() == [1]  # person 2 is never seen
     # persons.csv of the image model: one row per reported box, at its centre
-    np.testing.assert_array_equal(heard.persons.frames, heard.tracks.frames)
-    np.testing.assert_allclose(heard.persons.pixels,
-                               heard.tracks.boxes[:, :2] + heard.tracks.boxes[:, 2:] / 2)
+    np.testing.assert_array_equal(run.persons.frames, run.tracks.frames)
+    np.testing.assert_allclose(run.persons.pixels,
+                               run.tracks.boxes[:, :2] + run.tracks.boxes[:, 2:] / 2)
     with pytest.raises(InputError, match="--calibration-positions must be >= 4, got 3"):
         track_scene_image(scene_dir, VAVITConfig(), calibration_positions=3)
 
 
 @pytest.fixture(scope="module")
-def own(tmp_path_factory):
-    """The out-of-image scene as a recording of one's own: its WAV, detections and a camera
-    file in the array's frame."""
-    scene_dir, camera = _recording_files(tmp_path_factory.mktemp("own"))
+def own(scene_dir, tmp_path_factory):
+    """The scene as a recording of one's own: its WAV, detections and a camera file in the
+    array's frame."""
+    scene_dir, camera = _recording_files(tmp_path_factory.mktemp("own"), scene_dir)
     return scene_dir, camera, load_array(scene_dir / "array.json")
 
 
@@ -105,13 +133,7 @@ def test_block_wise_localization_is_the_whole_signals(own):
     peaks = audio_peaks(heat.weights, heat.time_s, grid, 25.0, n_frames,
                         floor=audio_peak_floor(PERSONS_LOCALIZER))
     steps: list[str] = []
-
-    def step(what: str):
-        import contextlib
-
-        steps.append(what)
-        return contextlib.nullcontext()
-
+    step = _recording_step(steps)
     got = localize_for_persons(ArrayRecording(wav, array, quiet=True, block_s=0.3), 25.0,
                                n_frames, vad=vad_available(), step=step)
     assert len(got.peaks) == n_frames
@@ -139,29 +161,31 @@ def test_own_recording_in_blocks_equals_one_block(own):
     whole = track_own_recording(inputs, PersonConfig(), block_s=60.0)
     assert isinstance(blocks, RecordingRun)
     _same_run(blocks, whole)
-    assert blocks.n_frames == 400 and blocks.fps == 25.0 and blocks.audio_fs == FS
-    assert blocks.speech and len({s.speaker for s in blocks.speech}) == 2
+    assert blocks.n_frames == 125 and blocks.fps == 25.0 and blocks.audio_fs == FS
+    assert blocks.speech and blocks.n_persons == 2
     assert blocks.camera_fit is None and blocks.camera_check is not None
     assert not blocks.camera_check.warnings  # the camera file agrees with the recording
 
 
-def test_own_recording_from_a_doa_csv_with_the_camera_estimated(tmp_path):
-    scene_dir, camera = _recording_files(tmp_path, walkout()[0])
-    inputs = RecordingInputs(camera=None, detections=scene_dir / "detections.txt",
-                             doa=scene_dir / "gt" / "doa.csv", fps=25.0,
-                             image_size=(640, 480))
+def test_own_recording_from_a_doa_csv(own):
+    scene_dir, camera, _ = own
+    det = scene_dir / "detections.txt"
+    inputs = RecordingInputs(camera=camera, detections=det, doa=scene_dir / "gt" / "doa.csv",
+                             fps=25.0)
     run = track_own_recording(inputs, PersonConfig())
-    assert run.camera_fit is not None and run.camera_check is None
-    assert run.camera is run.camera_fit.camera
-    assert run.speech and run.audio_fs is None
-    # without audio: the visual tracker, no speaker turns; the camera is needed then
-    visual = track_own_recording(RecordingInputs(camera=camera,
-                                                 detections=scene_dir / "detections.txt",
-                                                 fps=25.0), PersonConfig(), use_audio=False)
+    assert run.speech and run.audio_fs is None and run.camera_check is not None
+    # without audio: the visual tracker, no speaker turns
+    visual = track_own_recording(inputs, PersonConfig(), use_audio=False)
     assert visual.speech is None and visual.camera_check is None
+    assert np.unique(visual.persons.ids).tolist() == [1]
+    # the camera estimated: person 1 talks from one place of the image only
+    with pytest.raises(InputError, match="--camera auto: too little evidence"):
+        track_own_recording(RecordingInputs(camera=None, detections=det,
+                                            doa=scene_dir / "gt" / "doa.csv", fps=25.0,
+                                            image_size=(640, 480)), PersonConfig())
     with pytest.raises(InputError, match="--camera auto needs the audio's directions"):
-        track_own_recording(RecordingInputs(camera=None, detections=scene_dir / "detections.txt",
-                                            fps=25.0, image_size=(640, 480)),
+        track_own_recording(RecordingInputs(camera=None, detections=det, fps=25.0,
+                                            image_size=(640, 480)),
                             PersonConfig(), use_audio=False)
 
 
@@ -202,5 +226,5 @@ def test_av163_sequence(tmp_path):
     scores = av163_scores(run)
     assert set(scores) == {"OSPA (px)", "persons", "speakers"}
     assert scores["persons"] == run.n_persons and 0 <= scores["OSPA (px)"] <= 50
-    with pytest.raises(InputError, match="AV16.3 folder not found"):
+    with pytest.raises(InputError, match=r"AV16\.3 folder not found"):
         track_av163_sequence(tmp_path / "none", 7, 2, video, PersonConfig())

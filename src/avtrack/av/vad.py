@@ -63,7 +63,7 @@ LEVEL_PERCENTILE = 99.9
 #: Values per temporary array of the directional masses (memory: 8 bytes each).
 _CHUNK_VALUES = 1 << 17
 #: Directions (heat-map columns) smoothed at a time.
-_COLUMNS = 8
+_COLUMNS = 2
 
 
 def _vad_module():

@@ -246,6 +246,8 @@ def track_own_recording(
     InputError
         Inputs that do not fit together (sizes, lengths, frames), or bad files.
     """
+    if voices and (inputs.audio is None or not use_audio):
+        raise InputError("--voices needs --audio with --array (the microphones to beamform)")
     camera = None if inputs.camera is None else read_camera_file(inputs.camera)
     video = None if inputs.video is None else probe_video(inputs.video)
     if video is not None and camera is not None and video.image_size != (camera.width,
@@ -286,9 +288,7 @@ def track_own_recording(
             raise InputError(str(exc)) from None
     elapsed = time.perf_counter() - t0
     out_voices = None
-    if voices:
-        if recording is None:
-            raise InputError("--voices needs --audio with --array (the microphones to beamform)")
+    if voices and recording is not None:
         t0 = time.perf_counter()
         out_voices = beamform_voices(recording.read(), FS, recording.array, res.persons,
                                      res.speech, step)

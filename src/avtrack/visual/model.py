@@ -13,7 +13,7 @@ projection ``P = [I_4 0]``.
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 from itertools import pairwise
@@ -135,12 +135,16 @@ class BoxObservations:
         their per-frame constants (:attr:`inv_var`, :attr:`information_terms`,
         :attr:`log_normaliser`) already set: rows of the batch's, computed once for all rows
         (they are row-wise, so each frame gets the very numbers it would compute)."""
+        return list(self.iter_split(bounds))
+
+    def iter_split(self, bounds: Sequence[int]) -> Iterator[BoxObservations]:
+        """:meth:`split`, one frame at a time (memory: one frame's views, not every frame's)."""
         z, var, app, sc = self.z, self.var, self.appearance, self.scores
         inv_var, terms, log_norm = self.inv_var, self.information_terms, self.log_normaliser
-        return [_rows(z[a:b], var[a:b], None if app is None else app[a:b],
-                      None if sc is None else sc[a:b], inv_var=inv_var[a:b],
-                      information_terms=terms[a:b], log_normaliser=log_norm[a:b])
-                for a, b in pairwise(bounds)]
+        for a, b in pairwise(bounds):
+            yield _rows(z[a:b], var[a:b], None if app is None else app[a:b],
+                        None if sc is None else sc[a:b], inv_var=inv_var[a:b],
+                        information_terms=terms[a:b], log_normaliser=log_norm[a:b])
 
 
 def _rows(z: np.ndarray, var: np.ndarray, appearance: np.ndarray | None,

@@ -16,6 +16,7 @@ Example
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -248,12 +249,13 @@ class OVBTracker(ManagedTargets):
         return BoxObservations(z, var, app, scores)
 
     def _frame_observations(self, dets: MOTData, appearance: np.ndarray | None,
-                            n_frames: int | None) -> list[BoxObservations]:
+                            n_frames: int | None) -> Iterator[BoxObservations]:
         """What :meth:`_observations` gives for each frame ``1..n_frames`` of ``dets``,
-        computed for all rows at once (``appearance``: one row per detection, or None)."""
+        computed for all rows at once (``appearance``: one row per detection, or None), frame
+        after frame."""
         n = dets.n_frames if n_frames is None else n_frames
         if n <= 0:
-            return []
+            return iter(())
         # first row of each frame 1..n + 1 (as MOTData.frame_slices, without the slices)
         bounds = np.searchsorted(dets.frames, np.arange(1, n + 2), side="left")
         lo, hi = int(bounds[0]), int(bounds[-1])
@@ -262,7 +264,7 @@ class OVBTracker(ManagedTargets):
         # row index in ``first`` of each frame's start: detections below min_score are dropped
         kept = np.zeros(hi - lo + 1, dtype=np.int64)
         np.cumsum(dets.scores[lo:hi] >= self.config.min_score, out=kept[1:])
-        return first.split(kept[bounds - lo].tolist())
+        return first.iter_split(kept[bounds - lo].tolist())
 
     def step(self, boxes: np.ndarray, scores: np.ndarray | None = None,
              appearance: np.ndarray | None = None) -> FrameTracks:
