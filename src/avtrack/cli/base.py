@@ -92,22 +92,41 @@ def add_array_option(
     )
 
 
+def add_grid_options(parser: argparse.ArgumentParser, example: str, use: str) -> None:
+    """``--grid-step DEG`` and ``--elevations E1,E2,...``: a localizer's candidate directions
+    (:func:`grid_from_options` builds them); ``example`` and ``use`` complete the help of
+    ``--elevations`` (an example value, what the command does with the elevations)."""
+    parser.add_argument(
+        "--grid-step",
+        type=float,
+        default=5.0,
+        metavar="DEG",
+        help="azimuth spacing of the candidate directions (default 5)",
+    )
+    parser.add_argument(
+        "--elevations",
+        metavar="E1,E2,...",
+        help=f"candidate elevations in degrees, e.g. --elevations={example} (default: "
+        "0,20,40,60 for a planar array, -40..60 for a 3-D one, 0 for a line of microphones "
+        f"or an HRIR array; {use})",
+    )
 
 
+def grid_from_options(step_deg: float, elevations: str | None, array: Any) -> Any:
+    """The :class:`~avtrack.localize.DirectionGrid` of ``--grid-step`` and ``--elevations``
+    (default: the elevations the microphone array ``array`` can tell apart,
+    :meth:`~avtrack.localize.DirectionGrid.for_array`); a bad value is an error naming its
+    option."""
+    from avtrack.localize import DirectionGrid  # (avtrack --help imports no NumPy)
 
-
-
-
-
-
-
-
-
-
-
-
-
-
+    try:
+        DirectionGrid.azimuths(step_deg)
+    except ValueError as exc:
+        raise InputError(f"--grid-step: {exc}") from None
+    try:
+        return DirectionGrid.from_options(step_deg, elevations, array)
+    except ValueError as exc:
+        raise InputError(f"--elevations: {exc}") from None
 
 
 # -- options from a file --------------------------------------------------------------------
@@ -292,9 +311,14 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 __all__ = [
     "HelpFormatter",
+    "add_array_option",
+    "add_clipping_option",
     "add_command",
     "add_common",
     "add_config_option",
+    "add_grid_options",
+    "add_output_option",
     "apply_config_file",
     "check_outputs",
+    "grid_from_options",
 ]

@@ -23,26 +23,6 @@ STEPS = (
 )
 
 
-def demo_scenario(seed: int, duration: float, people: int = 3) -> dict:
-    """The default meeting: 3 people in front of a NAO-like 4-mic array (free field) and camera.
-
-    The named ``meeting`` scene draws 2-4 people; the first of the seeds ``seed, seed + 1000,
-    ...`` that gives ``people`` people is used, so the demo scene depends on ``seed`` (and
-    ``people``) only.
-    """
-    from avtrack.io.scenario import validate_scenario
-    from avtrack.simulate.library import named_scenario
-
-    for k in range(100):
-        raw = named_scenario("meeting", seed + 1000 * k, duration)
-        if len(raw["people"]) == people:
-            break
-    raw["seed"] = seed
-    raw["name"] = "demo-meeting"
-    raw["array"] = {**raw["array"], "name": "nao4", "hrir": False}
-    return validate_scenario(raw)
-
-
 def _progress(step: int, quiet: bool) -> float:
     if not quiet:
         bar = "#" * (step + 1) + "." * (len(STEPS) - step - 1)
@@ -56,6 +36,7 @@ def run_av(args: argparse.Namespace) -> int:
     from avtrack.io.mot import write_mot
     from avtrack.io.rttm import write_rttm
     from avtrack.io.scene import load_scene
+    from avtrack.simulate.library import demo_scenario
     from avtrack.simulate.scene import simulate_scene, write_scene
 
     out = _check_arguments(args)
@@ -123,12 +104,12 @@ def _localize(array, audio: np.ndarray, inputs, quiet: bool):
         audio_peaks,
         localizer_grid,
     )
-    from avtrack.cli.localize import localize_signal
     from avtrack.localize import make_localizer
 
     grid = localizer_grid(array)
     loc = make_localizer(PERSONS_LOCALIZER, array, grid)
-    heat = localize_signal(loc, audio, None, quiet)
+    with progress.activity(f"localizing {audio.shape[1] / loc.fs:.1f} s", quiet):
+        heat = loc.run(audio)
     peaks = audio_peaks(heat.weights, heat.time_s, grid, inputs.fps, inputs.n_frames,
                         floor=audio_peak_floor(PERSONS_LOCALIZER))
     span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
