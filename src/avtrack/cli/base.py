@@ -4,17 +4,16 @@ Each sub-command module defines ``register(subparsers)`` that adds its parser an
 ``func`` (a callable ``args -> int`` exit status) with ``parser.set_defaults(func=...)``.
 Modules are listed in :data:`avtrack.cli.main.COMMAND_MODULES`.
 
-``--config FILE.yaml`` comes in two kinds, with one error wording (that of the scenario and
-suite files: ``FILE: a.b: what is wrong``):
-
-* a library config dataclass (``OVBTConfig``, ``PHDConfig`` ...):
-  :func:`avtrack.config.load_config` reads the file and checks it field by field against the
-  dataclass;
-* the command's own options (``demo``, ``simulate``, ``eval``, ``batch``):
-  :func:`add_config_option` adds ``--config`` whose keys are the options' names.
-
-In both, options given on the command line override the file, and the file is checked before
-any input is read, so a bad file fails at once.
+``--config FILE.yaml`` holds the parameters of the command's algorithm where the command runs
+one (``track-mot``, ``track-phd``, ``localize``, ``track-audio`` ...): the fields of its config
+dataclass (``OVBTConfig``, ``PHDConfig`` ...), added by :func:`add_algorithm_config_option`
+and read by :func:`avtrack.config.load_config`, which checks the file field by field against
+the dataclass. A command that runs no single algorithm (``demo``, ``simulate``, ``eval``,
+``batch``) takes its own option values instead: :func:`add_config_option` adds ``--config``
+whose keys are the options' names. Either way the errors have one wording (that of the
+scenario and suite files: ``FILE: a.b: what is wrong``), options given on the command line
+override the file, and the file is checked before any input is read, so a bad file fails at
+once.
 """
 
 from __future__ import annotations
@@ -89,6 +88,22 @@ def add_array_option(
         required=required,
         metavar="ARRAY",
         help=f"built-in array ({', '.join(BUILTIN_ARRAYS)}) or a JSON file{note}",
+    )
+
+
+def add_algorithm_config_option(
+    parser: argparse.ArgumentParser, fields: str, note: str = ""
+) -> None:
+    """``--config FILE.yaml``: the parameters of the command's algorithm, a YAML mapping of the
+    fields of its config dataclass (``fields``, in words: ``"OVBTConfig"``; ``note`` adds to
+    the help). The command reads it with :func:`avtrack.config.load_config`; options that set
+    a field on the command line win over the file."""
+    parser.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE.yaml",
+        help=f"the algorithm's parameters: a YAML mapping of {fields} fields{note} (see the "
+        "examples below)",
     )
 
 
@@ -219,8 +234,8 @@ def add_config_option(parser: argparse.ArgumentParser, exclude: tuple[str, ...] 
         "--config",
         type=Path,
         metavar="FILE.yaml",
-        help=f"option values from a YAML mapping (keys: {keys}); options given on the "
-        "command line win",
+        help=f"this command's option values from a YAML mapping (keys: {keys}); options "
+        "given on the command line win",
     )
 
     @functools.wraps(func)
@@ -311,6 +326,7 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 __all__ = [
     "HelpFormatter",
+    "add_algorithm_config_option",
     "add_array_option",
     "add_clipping_option",
     "add_command",

@@ -16,6 +16,7 @@ from avtrack.audio.arrays import load_array
 from avtrack.audio.recording import BLOCK_SECONDS, FS, ArrayRecording
 from avtrack.cli import progress
 from avtrack.cli.base import (
+    add_algorithm_config_option,
     add_array_option,
     add_clipping_option,
     add_command,
@@ -108,7 +109,7 @@ rate than 16 kHz is resampled.""",
     p.add_argument("--max-peaks", type=int, metavar="K", help="at most K peaks per frame")
     add_grid_options(p, "-20,0,20", "peaks are taken over azimuth, at the elevation of "
                      "their largest value")
-    p.add_argument("--config", type=Path, metavar="FILE.yaml", help="the method's parameters")
+    add_algorithm_config_option(p, "the --method's Config")
     p.add_argument(
         "--block-size",
         type=int,

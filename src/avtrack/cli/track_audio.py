@@ -23,6 +23,7 @@ import numpy as np
 from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.cli import progress
 from avtrack.cli.base import (
+    add_algorithm_config_option,
     add_array_option,
     add_clipping_option,
     add_command,
@@ -123,14 +124,11 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         metavar="K",
         help="one tracker update per K localizer frames (default 4 = 32 ms)",
     )
-    p.add_argument(
-        "--config",
-        type=Path,
-        metavar="FILE.yaml",
-        help="tracker parameters (GaussConfig / VonMisesConfig fields) over the defaults for "
-        "the localizer's maps; on dprtf-eg-fast maps the trackers report the direction "
-        "predicted 0.15 s ahead (latency compensation; 'lead_s: 0' reports the filtered one)",
-    )
+    add_algorithm_config_option(
+        p, "the --tracker's GaussConfig / VonMisesConfig",
+        ", over its defaults for the localizer's maps (on dprtf-eg-fast maps the trackers report "
+        "the direction predicted 0.15 s ahead, latency compensation; 'lead_s: 0' reports the "
+        "filtered one)")
     p.add_argument(
         "--plot",
         type=Path,

@@ -11,10 +11,11 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common
+from avtrack.cli.base import add_algorithm_config_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.mot import write_mot
+from avtrack.io.video import VideoInfo, iter_frames
 from avtrack.pipelines import mot
 from avtrack.pipelines.mot import check_against_video, load_appearance
 from avtrack.visual.detect import DEFAULT_PERSON_DETECTOR, DETECTORS
@@ -95,8 +96,8 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                    help="with --video: write DIR/index.html and DIR/tracks.webm, the tracks "
                    "drawn over the video's own frames (with the scores and the ground truth "
                    "outlined when the sequence folder has gt/gt.txt)")
-    p.add_argument("--config", type=Path, metavar="FILE.yaml",
-                   help="tracker parameters (OVBTConfig fields)")
+    add_algorithm_config_option(p, "OVBTConfig", "; --min-score and --birth-min-score win over "
+                                "the file")
     p.add_argument("--min-score", type=float, metavar="S",
                    help="drop detections with a lower confidence (overrides --config)")
     p.add_argument("--birth-min-score", type=float, metavar="S",
@@ -110,13 +111,12 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
     add_common(p, run)
 
 
-def _report(args: argparse.Namespace, res: mot.MOTRun) -> None:
+def _report(args: argparse.Namespace, res: mot.MOTRun, video: VideoInfo) -> None:
     """``--report DIR``: the tracks over the video's frames, scored when the sequence folder
     has ``gt/gt.txt`` (MOTChallenge layout: SEQ/det/det.txt, SEQ/gt/gt.txt)."""
-    from avtrack.io.video import iter_frames
     from avtrack.viz.recording import write_recording_report
 
-    video, n_frames = res.video, res.n_frames
+    n_frames = res.n_frames
     gt, scores = mot.score_against_sequence(res.tracks, args.detections, n_frames)
     with progress.activity(f"drawing the tracks over {n_frames} frames", args.quiet):
         write_recording_report(args.report, f"avtrack: {video.path.name}", res.tracks,
@@ -161,7 +161,7 @@ def run(args: argparse.Namespace) -> int:
               f"writing empty results", file=sys.stderr)
     write_mot(args.output, res.tracks)
     if args.report is not None and res.video is not None:
-        _report(args, res)
+        _report(args, res, res.video)
     if not args.quiet:
         print(f"tracked {res.n_frames} frames, {len(np.unique(res.tracks.ids))} tracks, "
               f"{len(res.tracks)} boxes -> {args.output} "

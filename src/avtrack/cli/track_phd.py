@@ -10,7 +10,12 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common, add_output_option
+from avtrack.cli.base import (
+    add_algorithm_config_option,
+    add_command,
+    add_common,
+    add_output_option,
+)
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.phd import PHD_FILTERS, PHDConfig
@@ -100,7 +105,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "and as many DOA outliers (uniform azimuth), this many per frame each (Poisson); the "
         "filter's clutter_visual and clutter_audio grow by the same rate (default 0)",
     )
-    p.add_argument("--config", type=Path, metavar="FILE.yaml", help="PHDConfig fields")
+    add_algorithm_config_option(p, "PHDConfig")
     add_output_option(p, "TRACKS.csv", "output CSV (written atomically)")
     p.add_argument(
         "--plot",

@@ -51,4 +51,13 @@ def __getattr__(name: str) -> Any:
     return getattr(importlib.import_module(f"avtrack.pipelines.{module}"), name)
 
 
-__all__ = sorted(_MODULE_OF)
+__all__ = [
+    "LocalizeRun",
+    "MOTRun",
+    "PHDRun",
+    "TrackRun",
+    "localize_recording",
+    "track_av163",
+    "track_mot_sequence",
+    "track_recording",
+]

@@ -189,23 +189,22 @@ def track_mot_sequence(
         its image, an image size that is not the video's, a config that cannot use the
         video's histograms).
     """
-    if detections is None and video is None:
-        raise InputError("give the detections, or a video to detect people in")
     if detections is not None and detector is not None:
         raise InputError("--detector detects in the frames: give it without DET.txt")
     if video is not None and appearance is not None:
         raise InputError("the appearance comes from the video's frames: give either, not both")
-    source = detections if detections is not None else video
-    if detections is None:
+    if detections is not None:
+        dets = read_mot(detections, kind="det")
+    elif video is not None:
         dets = detect_in_video(video, detector or DEFAULT_PERSON_DETECTOR, stage)
     else:
-        dets = read_mot(detections, kind="det")
+        raise InputError("give the detections, or a video to detect people in")
     app = None if appearance is None else load_appearance(appearance, len(dets))
     fps_source = None
     info = None
     if video is not None:
         info = probe_video(video)
-        check_against_video(dets, info, source)
+        check_against_video(dets, info, detections or video)
         if not fps and info.fps:
             fps, fps_source = info.fps, "the video's header"
         if config.appearance != "bhattacharyya":
@@ -231,7 +230,7 @@ def track_mot_sequence(
             length = ini.get("length")  # (an int: read_seqinfo parses it)
             n_frames = None if length is None else int(length)
         if not fps and ini.get("frame_rate"):
-            fps, fps_source = ini["frame_rate"], f"{seqinfo}"
+            fps, fps_source = float(ini["frame_rate"]), f"{seqinfo}"
     t0 = time.perf_counter()
     n = max(dets.n_frames, n_frames or 0)
     if info is not None:
@@ -242,7 +241,7 @@ def track_mot_sequence(
         with stage(f"tracking {n} frames"):
             tracks = track_mot(dets, app, config, size, n_frames, fps)
     except ValueError as exc:
-        raise InputError(str(exc), source) from None
+        raise InputError(str(exc), detections or video) from None
     return MOTRun(tracks, dets, n, size, fps, fps_source, time.perf_counter() - t0, info)
 
 
