@@ -144,6 +144,18 @@ def grid_from_options(step_deg: float, elevations: str | None, array: Any) -> An
         raise InputError(f"--elevations: {exc}") from None
 
 
+def write_json(path: Path, record: Mapping[str, Any]) -> None:
+    """Write ``record`` as JSON indented by 2, with a final newline, atomically (the scores
+    files of ``--json`` and the reports)."""
+    import json
+
+    from avtrack.io.base import atomic_write  # (avtrack --help imports no NumPy)
+
+    with atomic_write(path) as fh:
+        json.dump(record, fh, indent=2)
+        fh.write("\n")
+
+
 # -- options from a file --------------------------------------------------------------------
 class _Unset:
     """Default of an option that ``--config`` may set: not given on the command line."""
@@ -337,4 +349,5 @@ __all__ = [
     "apply_config_file",
     "check_outputs",
     "grid_from_options",
+    "write_json",
 ]

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
+from avtrack.cli.base import write_json
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 
@@ -200,7 +201,5 @@ def _write_report(
                  "azimuth when out of the image")  # fmt: skip
     report.write_report(out / "index.html", "avtrack demo: a simulated meeting", scores,
                         figures, notes, video=videos[0], video_links=videos)  # fmt: skip
-    with atomic_write(out / "scores.json") as fh:
-        json.dump({k: (None if isinstance(v, float) and np.isnan(v) else v)
-                   for k, v in scores.items()}, fh, indent=2)  # fmt: skip
-        fh.write("\n")
+    write_json(out / "scores.json", {k: (None if isinstance(v, float) and np.isnan(v) else v)
+                                      for k, v in scores.items()})
