@@ -146,8 +146,6 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("give DET.txt, or --video (with --detector) to detect in its frames")
     if args.report is not None and args.video is None:
         raise InputError("--report draws the tracks over the video's frames: give --video")
-    if args.detections is not None and args.detector is not None:
-        raise InputError("--detector detects in the frames: give it without DET.txt")
     image_size = parse_image_size(args.image_size) if args.image_size else None
     res = mot.track_mot_sequence(
         config, args.detections, video=args.video, detector=args.detector,
