@@ -210,27 +210,8 @@ def track_mot_sequence(
         if config.appearance != "bhattacharyya":
             raise InputError("--video gives colour histograms: the config's appearance must be "
                              f"'bhattacharyya', got {config.appearance!r}", config_path)
-    n_frames = None
-    if info is not None:
-        if image_size is not None and tuple(image_size) != info.image_size:
-            raise InputError(f"--image-size {image_size[0]}x{image_size[1]} differs from the "
-                             f"video's {info.width}x{info.height}", video)
-        size = info.image_size
-        n_frames = info.n_frames
-    else:
-        seqinfo = find_seqinfo(detections) if detections is not None else None
-        ini = read_seqinfo(seqinfo) if seqinfo else {}
-        if image_size is not None:
-            size = (int(image_size[0]), int(image_size[1]))
-        elif "width" in ini and "height" in ini:
-            size = (int(ini["width"]), int(ini["height"]))
-        else:
-            size = image_size_from_detections(dets)
-        if image_size is None:
-            length = ini.get("length")  # (an int: read_seqinfo parses it)
-            n_frames = None if length is None else int(length)
-        if not fps and ini.get("frame_rate"):
-            fps, fps_source = float(ini["frame_rate"]), f"{seqinfo}"
+    size, n_frames, fps, fps_source = _sequence_shape(dets, detections, video, info,
+                                                      image_size, fps, fps_source)
     t0 = time.perf_counter()
     n = max(dets.n_frames, n_frames or 0)
     if info is not None:
@@ -243,6 +224,34 @@ def track_mot_sequence(
     except ValueError as exc:
         raise InputError(str(exc), detections or video) from None
     return MOTRun(tracks, dets, n, size, fps, fps_source, time.perf_counter() - t0, info)
+
+
+def _sequence_shape(
+    dets: MOTData, detections: Path | None, video: Path | None, info: VideoInfo | None,
+    image_size: tuple[int, int] | None, fps: float | None, fps_source: str | None,
+) -> tuple[tuple[int, int], int | None, float | None, str | None]:
+    """Image size, length (None: unknown), frame rate and where the rate came from: the
+    video's, else seqinfo.ini next to the detections, else the detections' extent."""
+    if info is not None:
+        if image_size is not None and tuple(image_size) != info.image_size:
+            raise InputError(f"--image-size {image_size[0]}x{image_size[1]} differs from the "
+                             f"video's {info.width}x{info.height}", video)
+        return info.image_size, info.n_frames, fps, fps_source
+    seqinfo = find_seqinfo(detections) if detections is not None else None
+    ini = read_seqinfo(seqinfo) if seqinfo else {}
+    n_frames = None
+    if image_size is not None:
+        size = (int(image_size[0]), int(image_size[1]))
+    elif "width" in ini and "height" in ini:
+        size = (int(ini["width"]), int(ini["height"]))
+    else:
+        size = image_size_from_detections(dets)
+    if image_size is None:
+        length = ini.get("length")  # (an int: read_seqinfo parses it)
+        n_frames = None if length is None else int(length)
+    if not fps and ini.get("frame_rate"):
+        fps, fps_source = float(ini["frame_rate"]), f"{seqinfo}"
+    return size, n_frames, fps, fps_source
 
 
 def score_against_sequence(
