@@ -140,3 +140,29 @@ def test_track_av_reads_the_converted_files(shared_data, tmp_path, capsys):
     assert last.sum() == len(truth) == 2
     d = np.linalg.norm(persons.pixels[last][:, None] - truth[None], axis=2)
     assert np.all(d.min(axis=1) < 1.0)  # seen persons are where their boxes are
+
+
+@pytest.mark.slow
+def test_generic_path_on_sequence_30_from_its_video(shared_data, tmp_path):
+    """The converted files with the sequence's video and the default face detector, as a user
+    runs it: persons in the image within 15 px OSPA of posGT (14.9 measured; the dataset
+    path with the same detector 14.1)."""
+    pytest.importorskip("yuface", reason="the default face detector needs avtrack[detectors]")
+    from avtrack.metrics.ospa import ospa_sequence
+    from avtrack.phd.likelihood import av163_truth
+
+    folder = shared_data / "av16.3"
+    video = folder / "seq30-2p-1101_cam1_divx_audio.avi"
+    if not video.is_file():
+        pytest.skip(f"{video} not in the shared data")
+    conv, out = tmp_path / "av30", tmp_path / "generic"
+    assert main(["convert", "av16.3", str(folder), "--seq", "30", "--cam", "1", "-o",
+                 str(conv), "-q"]) == 0
+    assert main(["track-av", "--video", str(video), "--doa", str(conv / "doa.csv"),
+                 "--camera", str(conv / "camera.yaml"), "-o", str(out), "-q",
+                 "--no-report"]) == 0
+    seq = load_av163(folder, 30, 1)
+    persons = read_persons_csv(out / "persons.csv", 25.0)
+    shown = persons.in_view & np.all(np.isfinite(persons.pixels), axis=1)
+    est = [persons.pixels[shown & (persons.frames == f)] for f in seq.frames]
+    assert ospa_sequence(est, av163_truth(seq), 50.0, 2)[:, 0].mean() <= 15.0

@@ -28,7 +28,7 @@ examples:
   # sequence 30 seen by camera 1, in microphone array 1's frame: av30/doa.csv, av30/camera.yaml
   avtrack convert av16.3 ../shared/data/av16.3 --seq 30 --cam 1 --array 1 -o av30
 
-  # then track the sequence's video as a recording of your own (any detector) ...
+  # then track the video as a recording of your own (default detector: yunet-face) ...
   avtrack track-av --video ../shared/data/av16.3/seq30-2p-1101_cam1_divx_audio.avi \\
       --doa av30/doa.csv --camera av30/camera.yaml -o out/av30-generic
 
