@@ -67,6 +67,7 @@ import numpy as np
 import scipy.io
 
 from avtrack.errors import InputError
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
 
 FRAME_RATE = 25
@@ -730,7 +731,7 @@ def probe_av163_video(video: str | Path, seq: AV163Sequence):
     return info
 
 
-def av163_pinhole(seq: AV163Sequence, array_centre=AV163_ARRAY_CENTRE):
+def av163_pinhole(seq: AV163Sequence, array_centre=AV163_ARRAY_CENTRE) -> PinholeCamera:
     """The sequence's camera as a :class:`~avtrack.io.camera.PinholeCamera` in the array's
     frame: the pinhole part of the calibration, without its lens distortion and roll.
 
@@ -753,8 +754,6 @@ def av163_pinhole(seq: AV163Sequence, array_centre=AV163_ARRAY_CENTRE):
     PinholeCamera
         Image size :data:`IMAGE_SIZE`.
     """
-    from avtrack.io.camera import PinholeCamera
-
     centre = np.asarray(array_centre, dtype=float)
     if centre.shape != (3,) or not np.all(np.isfinite(centre)):
         raise ValueError(f"av163_pinhole: array_centre must be 3 finite numbers, got "
@@ -769,7 +768,7 @@ def av163_pinhole(seq: AV163Sequence, array_centre=AV163_ARRAY_CENTRE):
                          position=optical_centre - centre, yaw_deg=yaw, pitch_deg=pitch)
 
 
-def av163_roll(seq: AV163Sequence, pinhole) -> np.ndarray:
+def av163_roll(seq: AV163Sequence, pinhole: PinholeCamera) -> np.ndarray:
     """The rotation about the optical axis that :func:`av163_pinhole` drops: ``(2, 2)``, with
     the calibration's rotation ``R = R_roll R_pinhole`` (``R_roll`` acting on normalised image
     coordinates). Its angle is ``degrees(atan2(r[1, 0], r[0, 0]))``."""
