@@ -32,9 +32,8 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # one core, before NumPy loads BLAS
 
 import argparse  # noqa: E402
-import contextlib  # noqa: E402
-import io  # noqa: E402
 import re  # noqa: E402
+import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
@@ -43,7 +42,6 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 from _common import shared_data_dir  # noqa: E402
-from avtrack.cli.main import main as avtrack  # noqa: E402
 from avtrack.io.av163 import AV163_ARRAY_CENTRE, load_av163, load_av163_faces  # noqa: E402
 from avtrack.io.camera import read_camera_file  # noqa: E402
 from avtrack.io.doa import read_doa_csv  # noqa: E402
@@ -54,15 +52,14 @@ from avtrack.phd.likelihood import av163_truth  # noqa: E402
 
 
 def run(argv: list[str]) -> tuple[float, str]:
-    """``avtrack ARGV`` in this process: seconds, and its stderr (warnings); an exit status
-    other than 0 is an error."""
+    """``avtrack ARGV`` as a user runs it (``python -m avtrack``): seconds, and its stderr
+    (warnings); an exit status other than 0 is an error."""
     t0 = time.perf_counter()
-    err = io.StringIO()
-    with contextlib.redirect_stderr(err):
-        status = avtrack(argv)
-    if status != 0:
-        raise RuntimeError(f"avtrack {' '.join(argv)} exited {status}: {err.getvalue()}")
-    return time.perf_counter() - t0, err.getvalue()
+    proc = subprocess.run([sys.executable, "-m", "avtrack", *argv], capture_output=True,
+                          text=True, check=False)
+    if proc.returncode != 0:
+        raise RuntimeError(f"avtrack {' '.join(argv)} exited {proc.returncode}: {proc.stderr}")
+    return time.perf_counter() - t0, proc.stderr
 
 
 def persons_ospa(out: Path, seq) -> np.ndarray:
@@ -93,11 +90,7 @@ def doa_error(doa_csv: Path, seq) -> float:
     """Median (degrees) over the DOA rows of the distance to the nearest mouth azimuth of the
     row's frame (seen from array 1's centre)."""
     t = read_doa_csv(doa_csv)
-    az = np.full((seq.n_persons, seq.n_frames), np.nan)
-    for p in range(seq.n_persons):
-        idx = seq.frame_index(seq.mouth[p].time_s)
-        d = seq.mouth[p].xyz[idx >= 0] - np.asarray(AV163_ARRAY_CENTRE)
-        az[p, idx[idx >= 0]] = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+    az = seq.mouth_azimuths(np.asarray(AV163_ARRAY_CENTRE))
     diff = (t.azimuth_deg[:, None] - az[:, t.frames].T + 180) % 360 - 180
     with np.errstate(all="ignore"):
         return float(np.nanmedian(np.nanmin(np.abs(diff), axis=1)))

@@ -226,11 +226,7 @@ def test_doa_rows_meet_the_mouths_of_their_frame(sequences, seq):
     more than 0.3 degrees, and five frames off is worse by more than a degree."""
     s = sequences[seq, 1]
     t = av163_doa_table(s)
-    mouth_az = np.full((s.n_persons, s.n_frames), np.nan)
-    for p in range(s.n_persons):
-        idx = s.frame_index(s.mouth[p].time_s)
-        d = s.mouth[p].xyz[idx >= 0] - np.asarray(AV163_ARRAY_CENTRE)
-        mouth_az[p, idx[idx >= 0]] = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+    mouth_az = s.mouth_azimuths(np.asarray(AV163_ARRAY_CENTRE))
 
     def median_error(shift: int) -> float:
         k = t.frames - shift

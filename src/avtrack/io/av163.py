@@ -348,6 +348,17 @@ class AV163Sequence:
         ok[ok] &= np.abs(self.time_s[idx[ok]] - t[ok]) < 0.5 / FRAME_RATE
         return np.where(ok, idx, -1)
 
+    def mouth_azimuths(self, centre: np.ndarray) -> np.ndarray:
+        """Azimuth (degrees, counter-clockwise from the room's x axis) of each person's mouth
+        seen from ``centre`` (3,) metres, e.g. :data:`AV163_ARRAY_CENTRE`: ``(P, T)``, NaN on
+        frames without a mouth sample."""
+        out = np.full((self.n_persons, self.n_frames), np.nan)
+        for p in range(self.n_persons):
+            idx = self.frame_index(self.mouth[p].time_s)
+            d = self.mouth[p].xyz[idx >= 0] - np.asarray(centre, dtype=float).reshape(3)
+            out[p, idx[idx >= 0]] = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+        return out
+
     def project_mouth(self, person: int, distort: bool = True) -> np.ndarray:
         """3-D mouth ground truth of ``person`` (0-based) projected into this camera.
 
