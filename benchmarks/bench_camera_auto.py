@@ -102,7 +102,7 @@ def main() -> int:
         for seed in seeds:
             d = a.work / f"{suite}-{seed}"
             if not (d / "scene.yaml").is_file():
-                subprocess.run([sys.executable, "-m", "avtrack.cli.main", "simulate", suite,
+                subprocess.run([sys.executable, "-m", "avtrack", "simulate", suite,
                                 "-o", str(d), "--seed", str(seed), "--duration",
                                 str(a.duration), "-q"], check=True)
             row = run_scene(d)

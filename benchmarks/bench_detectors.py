@@ -41,10 +41,10 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 from scipy.optimize import linear_sum_assignment  # noqa: E402
 
-from avtrack.cli.main import main as avtrack_main  # noqa: E402
 from avtrack.errors import InputError  # noqa: E402
 from avtrack.io.mot import MOTData, read_mot, write_mot  # noqa: E402
 from avtrack.metrics.mot import evaluate_mot  # noqa: E402
+from avtrack.pipelines.mot import default_config, track_mot_sequence  # noqa: E402
 from avtrack.visual.detect import DETECTORS, load_detector  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data"
@@ -176,14 +176,16 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def track(video: str, dets: MOTData) -> tuple[float, float]:
-    """MOTA and IDF1 (percent) of ``avtrack track-mot DET.txt --video VIDEO``."""
+    """MOTA and IDF1 (percent) of ``avtrack track-mot DET.txt --video VIDEO``
+    (:func:`~avtrack.pipelines.mot.track_mot_sequence`), scored from its results file."""
     with tempfile.TemporaryDirectory() as tmp:
         det_path, res_path = Path(tmp) / "det.txt", Path(tmp) / "res.txt"
         write_mot(det_path, dets)
-        code = avtrack_main(["track-mot", str(det_path), "--video", str(VIDEOS[video]), "-o",
-                             str(res_path), "--quiet"])
-        if code != 0:
+        try:
+            run = track_mot_sequence(default_config(video=True), det_path, video=VIDEOS[video])
+        except InputError:
             return float("nan"), float("nan")
+        write_mot(res_path, run.tracks)
         res = read_mot(res_path, kind="result")
     gt = read_mot(VIDEOS[video].parent / "gt" / "gt.txt", kind="gt")
     s = evaluate_mot(gt, res)

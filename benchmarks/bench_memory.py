@@ -31,12 +31,11 @@ ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT / ".." / "shared" / "data" / "realaudio" / "respeaker"
 
 CHILD = """
-import resource, sys, time
-from avtrack.cli.main import main
+import resource, subprocess, sys, time
 t0 = time.perf_counter()
-rc = main(sys.argv[1:])
+rc = subprocess.run([sys.executable, "-m", "avtrack", *sys.argv[1:]]).returncode
 wall = time.perf_counter() - t0
-peak_kib = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+peak_kib = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
 print("__PEAK__", rc, peak_kib, wall)
 """
 

@@ -45,12 +45,13 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import parse_seeds  # noqa: E402
+from _scenes import scene_dir  # noqa: E402
 from avtrack.av.persons_scene import PERSONS_LOCALIZER, track_scene_persons  # noqa: E402
 from avtrack.av.vavit import fov_strip, track_scene  # noqa: E402
 from avtrack.io.doa import read_doa_csv  # noqa: E402
 from avtrack.io.mot import read_mot  # noqa: E402
 from avtrack.io.rttm import read_rttm  # noqa: E402
-from avtrack.io.scenario import validate_scenario  # noqa: E402
 from avtrack.io.scene import load_scene  # noqa: E402
 from avtrack.metrics.der import DERComponents, diarization_error_rate  # noqa: E402
 from avtrack.metrics.mot import evaluate_mot  # noqa: E402
@@ -60,18 +61,9 @@ from avtrack.metrics.persons import (  # noqa: E402
     offscreen_direction_error,
     truth_per_frame,
 )
-from avtrack.simulate.library import named_scenario  # noqa: E402
-from avtrack.simulate.scene import simulate_scene, write_scene  # noqa: E402
 
 SUITES = {"walkout": ("walkout", 1.0), "meeting-pfov": ("meeting", 0.4),
           "meeting-ffov": ("meeting", 1.0)}
-
-
-def scene_dir(work: Path, kind: str, seed: int, duration: float) -> Path:
-    d = work / f"{kind}-{seed}"
-    if not (d / "scene.yaml").is_file():
-        write_scene(simulate_scene(validate_scenario(named_scenario(kind, seed, duration))), d)
-    return d
 
 
 def gt_directions(d: Path, gt, fps: float, n_frames: int, fov: tuple[float, float]):
@@ -168,11 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--localizer", default=PERSONS_LOCALIZER,
                     help=f"heat maps of the direction model (default {PERSONS_LOCALIZER})")
     args = ap.parse_args(argv)
-    if "-" in args.seeds:
-        lo, hi = (int(x) for x in args.seeds.split("-"))
-        seeds = list(range(lo, hi + 1))
-    else:
-        seeds = [int(x) for x in args.seeds.split(",")]
+    seeds = parse_seeds(args.seeds)
     print(f"# bench_persons: {platform.processor() or platform.machine()}, "
           f"{time.strftime('%Y-%m-%d')}, seeds {args.seeds}, {args.duration:g} s scenes, "
           f"localizer {args.localizer}")

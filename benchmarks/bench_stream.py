@@ -4,7 +4,7 @@ The target: a 20-minute simulated recording is processed by the streaming API wi
 that stays flat. The script
 
 1. simulates the demo meeting (3 people, NAO-like 4-mic array in free field, camera and head
-   detector; :func:`avtrack.cli.demo_av.demo_scenario`) for ``--minutes`` minutes and writes
+   detector; :func:`avtrack.simulate.library.demo_scenario`) for ``--minutes`` minutes and writes
    it as a scene directory (cached in ``--work``), then trains the audio-to-image mapping on a
    simulated loudspeaker calibration of its room;
 2. runs each pipeline in a fresh process that reads the recording as a stream and samples its
@@ -122,8 +122,8 @@ def child_av(scene: Path, mapping_path: Path) -> dict:
 # ---------------------------------------------------------------------------- parent
 def prepare(work: Path, minutes: float, seed: int) -> tuple[Path, Path]:
     from avtrack.av.gllim import save_mapping
-    from avtrack.cli.demo_av import demo_scenario
     from avtrack.simulate.calibration import scene_setup, simulate_calibration, train_mapping
+    from avtrack.simulate.library import demo_scenario
     from avtrack.simulate.scene import simulate_scene, write_scene
 
     scene = work / f"meeting-{minutes:g}min-seed{seed}"

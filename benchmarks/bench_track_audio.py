@@ -112,7 +112,7 @@ def scene_dir(workdir: Path, kind: str, seed: int, duration: float) -> Path:
             [
                 sys.executable,
                 "-m",
-                "avtrack.cli.main",
+                "avtrack",
                 "simulate",
                 kind,
                 "-o",

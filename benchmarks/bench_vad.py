@@ -29,6 +29,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import parse_seeds  # noqa: E402
+from _scenes import scene_dir  # noqa: E402
 from avtrack.audio.arrays import load_array  # noqa: E402
 from avtrack.av.persons_scene import (  # noqa: E402
     PERSONS_LOCALIZER,
@@ -39,22 +41,12 @@ from avtrack.av.persons_scene import (  # noqa: E402
     track_scene_persons,
 )
 from avtrack.io.rttm import read_rttm  # noqa: E402
-from avtrack.io.scenario import validate_scenario  # noqa: E402
 from avtrack.io.scene import load_scene  # noqa: E402
 from avtrack.localize.base import HeatMaps  # noqa: E402
 from avtrack.metrics.der import DERComponents, diarization_error_rate  # noqa: E402
-from avtrack.simulate.library import named_scenario  # noqa: E402
-from avtrack.simulate.scene import simulate_scene, write_scene  # noqa: E402
 
 SUITES = {"walkout": ("walkout", 1.0), "walkout-pfov": ("walkout", 0.4),
           "meeting-pfov": ("meeting", 0.4), "meeting-ffov": ("meeting", 1.0)}
-
-
-def scene_dir(work: Path, kind: str, seed: int, duration: float) -> Path:
-    d = work / f"{kind}-{seed}"
-    if not (d / "scene.yaml").is_file():
-        write_scene(simulate_scene(validate_scenario(named_scenario(kind, seed, duration))), d)
-    return d
 
 
 def cached_localization(d: Path, sc) -> tuple[list[np.ndarray], float, HeatMaps]:
@@ -132,11 +124,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--suites", default="walkout,walkout-pfov,meeting-pfov",
                     help=f"comma-separated, of {', '.join(SUITES)}")
     args = ap.parse_args(argv)
-    if "-" in args.seeds:
-        lo, hi = (int(x) for x in args.seeds.split("-"))
-        seeds = list(range(lo, hi + 1))
-    else:
-        seeds = [int(x) for x in args.seeds.split(",")]
+    seeds = parse_seeds(args.seeds)
     print(f"# bench_vad: {platform.processor() or platform.machine()}, "
           f"{time.strftime('%Y-%m-%d')}, seeds {args.seeds}, {args.duration:g} s scenes")
     args.work.mkdir(parents=True, exist_ok=True)

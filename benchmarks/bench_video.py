@@ -4,7 +4,7 @@ PETS09-S2L1).
 
 For each sequence: MOTA / IDF1 / HOTA / IDSW of OVBT on SORT's public detections without
 appearance (the default) and with the video's hue-saturation histograms (thesis eq. 3.5) under
-``track-mot --video``'s settings (:data:`avtrack.cli.track_mot.VIDEO_DEFAULTS`); and the time
+``track-mot --video``'s settings (:func:`avtrack.pipelines.mot.default_config`); and the time
 to decode the video, compute the histograms and track, on one core, against the video's own
 duration (frames / seqinfo frame rate): below 1 is faster than the video. Last, the built-in
 HOG people detector's recall and precision against the ground-truth boxes (IoU >= 0.5, one to
@@ -25,17 +25,16 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import platform  # noqa: E402
 import time  # noqa: E402
-from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 from scipy.optimize import linear_sum_assignment  # noqa: E402
 
-from avtrack.cli.track_mot import VIDEO_DEFAULTS  # noqa: E402
 from avtrack.io.datasets import read_seqinfo  # noqa: E402
 from avtrack.io.mot import read_mot  # noqa: E402
 from avtrack.io.video import iter_frames, probe_video  # noqa: E402
 from avtrack.metrics.mot import box_iou, evaluate_mot  # noqa: E402
+from avtrack.pipelines.mot import default_config  # noqa: E402
 from avtrack.visual.histograms import detection_histograms  # noqa: E402
 from avtrack.visual.ovbt import OVBTConfig, track_mot  # noqa: E402
 
@@ -65,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
         duration = info.n_frames / fps
         for label, appearance, cfg in (
             ("detections", None, OVBTConfig()),
-            ("detections + video", app, replace(OVBTConfig(), **VIDEO_DEFAULTS)),
+            ("detections + video", app, default_config(video=True)),
         ):
             t1 = time.perf_counter()
             res = track_mot(dets, appearance, cfg, info.image_size, info.n_frames, fps)

@@ -24,6 +24,7 @@ LAYERS = [
     ["stream"],
     ["pipelines"],
     ["cli"],
+    ["__main__"],
 ]
 RANK = {name: i for i, names in enumerate(LAYERS) for name in names}
 ROOT = Path(avtrack.__file__).parent

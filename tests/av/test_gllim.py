@@ -166,6 +166,31 @@ def test_bad_arguments_are_named():
         )
 
 
+def test_a_gllim_and_a_stack_of_them_check_their_parameters_alike():
+    r, p, d = 2, 2, 3
+    args = [np.full(r, 0.5), np.zeros((r, p)), np.repeat(np.eye(p)[None], r, 0),
+            np.zeros((r, d, p)), np.zeros((r, d)), np.repeat(np.eye(d)[None], r, 0)]
+    model = GLLiM(*args)
+    assert not model.sigma.flags.writeable and model.sigma is not args[5]
+    with pytest.raises(ValueError, match=r"^GLLiM: pi must be \(R\) with sizes >= 1"):
+        GLLiM(np.zeros(0), *args[1:])
+    with pytest.raises(ValueError, match=r"^GLLiM: nu must be \(R=2, P\), got shape \(3, 2\)"):
+        GLLiM(args[0], np.zeros((3, p)), *args[2:])
+    with pytest.raises(ValueError, match=r"^GLLiM: lmat must have shape \(2, 3, 2\)"):
+        GLLiM(*args[:3], np.zeros((r, p, d)), *args[4:])
+    stacked = [np.stack([a, a]) for a in args]
+    mapping = AudioImageMapping(*stacked)
+    assert (mapping.n_bands, mapping.n_components, mapping.feature_dim) == (2, 2, 3)
+    with pytest.raises(ValueError, match=r"^AudioImageMapping: pi must be \(K, R\)"):
+        AudioImageMapping(args[0], *stacked[1:])
+    with pytest.raises(ValueError, match=r"^AudioImageMapping: lvec must be \(K=2, R=2, D\)"):
+        AudioImageMapping(*stacked[:4], np.zeros((2, 3, d)), stacked[5])
+    bad = stacked[5].copy()
+    bad[1, 0, 0, 0] = np.nan
+    with pytest.raises(ValueError, match=r"^AudioImageMapping: sigma must be finite"):
+        AudioImageMapping(*stacked[:5], bad)
+
+
 # The xllim binding (2.0.11) takes ownership of arrays given to its parameter setters and can
 # free them twice at interpreter exit, so the parity run happens in a child process.
 _XLLIM_SCRIPT = textwrap.dedent("""

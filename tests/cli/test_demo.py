@@ -7,18 +7,7 @@ import re
 
 import pytest
 
-from avtrack.cli.demo_av import demo_scenario
 from avtrack.cli.main import main
-
-
-def test_demo_scenario_has_three_people_and_nao4():
-    for seed in (0, 1, 7):
-        sc = demo_scenario(seed, 10.0)
-        assert len(sc["people"]) == 3 and sc["array"]["name"] == "nao4"
-        assert sc["seed"] == seed
-    assert demo_scenario(2, 10.0) == demo_scenario(2, 10.0)
-    for people in (2, 4):  # avtrack demo --people N
-        assert len(demo_scenario(0, 10.0, people)["people"]) == people
 
 
 def test_demo_writes_scores_and_a_self_contained_report(tmp_path, capsys):

@@ -135,8 +135,8 @@ def test_track_mot_frame_rate_from_seqinfo_and_option(tmp_path, monkeypatch):
         return real(*args, **kwargs)
 
     monkeypatch.setattr(ovbt, "track_mot", spy)
-    import avtrack.cli.track_mot as cli_mod
-    monkeypatch.setattr(cli_mod, "track_mot", spy)
+    import avtrack.pipelines.mot as pipeline
+    monkeypatch.setattr(pipeline, "track_mot", spy)
     det = str(_sequence_at_7_fps(tmp_path))
     assert main(["track-mot", det, "-o", str(tmp_path / "a.txt"), "-q"]) == 0
     assert main(["track-mot", det, "-o", str(tmp_path / "b.txt"), "-q", "--fps", "30"]) == 0

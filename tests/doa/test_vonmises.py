@@ -242,6 +242,11 @@ def test_config_validation():
         VonMisesConfig(kappa_y=5000.0)
     with pytest.raises(ValueError, match="birth_candidates"):
         VonMisesConfig(birth_candidates=0)
+    for bad in (-0.01, np.nan, True):
+        with pytest.raises(ValueError, match=r"VonMisesConfig\.velocity_std must be a finite "
+                           r"number >= 0"):
+            VonMisesConfig(velocity_std=bad)
+    assert VonMisesConfig(velocity_std=0.0, lead_s=0).velocity_std == 0.0
     with pytest.raises(ValueError, match="unknown field"):
         build_config(VonMisesConfig, {"kappa": 1.0})
     assert build_config(VonMisesConfig, {"kappa_y": 50.0}).kappa_y == 50.0

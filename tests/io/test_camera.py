@@ -196,6 +196,10 @@ def test_constructor_rejects_bad_arguments():
         PinholeCamera.from_fov(180.0, 640, 480, [0, 0, 0])
     with pytest.raises(ValueError, match="points must have shape"):
         cam().project(np.zeros((4, 2)))
+    with pytest.raises(ValueError, match=r"^PinholeCamera: cx must be finite, got nan"):
+        cam(cx=float("nan"))
+    with pytest.raises(ValueError, match=r"^PinholeCamera: height must be an integer > 0"):
+        cam(height=True)
 
 
 def test_camera_file_names_an_unknown_field_and_the_one_meant(tmp_path):

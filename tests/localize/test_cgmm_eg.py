@@ -10,13 +10,19 @@ from hypothesis.extra.numpy import arrays
 
 from avtrack.localize.cgmm_eg import (
     EGConfig,
+    cgmm_densities,
     cgmm_likelihood_ratios,
     decay_to_uniform,
+    densities_from_coefficients,
+    density_coefficients,
     eg_update,
+    eg_update_layers,
     evidence_change,
     local_mass,
     local_max,
+    mean_ratios,
     place_presence,
+    ratios_from_densities,
     spatial_smoothing,
 )
 from avtrack.localize.grid import DirectionGrid
@@ -37,6 +43,42 @@ def test_likelihood_ratios_match_the_direct_formula():
     # far-away features with a tiny variance: no underflow
     r = cgmm_likelihood_ratios(feats + 50, means, w, 1e-3)
     assert np.all(np.isfinite(r)) and np.allclose(r @ w, 1.0)
+
+
+def test_densities_from_precomputed_coefficients_match_the_direct_formula():
+    rng = np.random.default_rng(1)
+    feats = rng.standard_normal(6) + 1j * rng.standard_normal(6)
+    means = rng.standard_normal((6, 5)) + 1j * rng.standard_normal((6, 5))
+    n = complex_gauss(feats[:, None], means, 0.3)
+    expected = n / n.max(axis=1, keepdims=True)  # each row scaled to its largest entry
+    coef = density_coefficients(means, 0.3)
+    assert coef.shape == (6, 3, 5)
+    np.testing.assert_allclose(densities_from_coefficients(feats, coef), expected, rtol=1e-12)
+    np.testing.assert_allclose(cgmm_densities(feats, means, 0.3), expected, rtol=1e-12)
+    # a 1-feature hand case: c = 1 + 1j, means 1 + 1j and 0, sigma^2 = 1: densities 1, e^-2
+    d = densities_from_coefficients(np.array([1 + 1j]), density_coefficients(
+        np.array([[1 + 1j, 0j]]), 1.0))
+    np.testing.assert_allclose(d, [[1.0, np.exp(-2.0)]], rtol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    dens=arrays(np.float64, (7, 4), elements=st.floats(1e-6, 1.0)),
+    raw_w=arrays(np.float64, 4, elements=st.floats(0.01, 1.0)),
+)
+def test_mean_ratios_is_the_mean_of_the_ratios(dens, raw_w):
+    w = raw_w / raw_w.sum()
+    ratios = ratios_from_densities(dens, w)
+    np.testing.assert_allclose(mean_ratios(dens, w), ratios.mean(axis=0), rtol=1e-10)
+    # the updates take either form and give the same weights
+    np.testing.assert_allclose(eg_update(w, ratios, 0.3, 0.1),
+                               eg_update(w, mean_ratios(dens, w), 0.3, 0.1), rtol=1e-10)
+    np.testing.assert_allclose(evidence_change(w, ratios),
+                               evidence_change(w, mean_ratios(dens, w)), rtol=1e-9, atol=1e-12)
+    layers = np.vstack([w, w]) / 2
+    np.testing.assert_allclose(eg_update_layers(layers, ratios, 0.3, 0.1),
+                               eg_update_layers(layers, mean_ratios(dens, w), 0.3, 0.1),
+                               rtol=1e-10)
 
 
 def test_eg_update_hand_case():

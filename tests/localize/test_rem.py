@@ -18,6 +18,8 @@ def test_rem_update_hand_case():
     np.testing.assert_allclose(
         rem_update(w, ratios, 0.1), 0.9 * w + 0.1 * np.array([0.625, 0.375])
     )
+    # the mean ratio over the features gives the same step
+    np.testing.assert_allclose(rem_update(w, ratios.mean(axis=0), 0.1), rem_update(w, ratios, 0.1))
 
 
 @settings(max_examples=100, deadline=None)

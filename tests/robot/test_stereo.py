@@ -78,6 +78,13 @@ def test_rig_rejects_bad_parameters():
         StereoRig(500, 500, 320, 240, 640, 480, 0.0)
     with pytest.raises(ValueError, match="width must be an integer > 0"):
         StereoRig(500, 500, 320, 240, 640.5, 480, 0.1)
+    with pytest.raises(ValueError, match=r"^StereoRig: fy must be a finite number > 0"):
+        StereoRig(500, -1, 320, 240, 640, 480, 0.1)
+    with pytest.raises(ValueError, match=r"^StereoRig: cy must be finite"):
+        StereoRig(500, 500, 320, np.inf, 640, 480, 0.1)
+    rig = StereoRig(500, 500, 320, 240, 640.0, 480, 0.1)
+    assert rig == StereoRig(500.0, 500.0, 320.0, 240.0, 640, 480, 0.1)
+    assert isinstance(rig.width, int) and isinstance(rig.cx, float)
     with pytest.raises(ValueError, match="points must have depth"):
         StereoRig.nao().image_jacobian([[0.0, 0.0, -1.0]])
 

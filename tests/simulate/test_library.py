@@ -7,7 +7,7 @@ import pytest
 
 from avtrack.audio.arrays import builtin_array
 from avtrack.io.scenario import validate_scenario
-from avtrack.simulate.library import SCENARIOS, named_scenario
+from avtrack.simulate.library import SCENARIOS, demo_scenario, named_scenario
 
 
 @pytest.mark.parametrize("name", sorted(SCENARIOS))
@@ -37,3 +37,13 @@ def test_array_talkers_are_still_talkers_around_a_respeaker_array(seed):
     assert raw == named_scenario("array-talkers", seed, 6.0)  # the seed decides everything
     side = np.linalg.norm(np.diff(builtin_array("respeaker4").positions, axis=0), axis=1)
     np.testing.assert_allclose(side, 0.0457)
+
+
+def test_demo_scenario_has_three_people_and_nao4():
+    for seed in (0, 1, 7):
+        sc = demo_scenario(seed, 10.0)
+        assert len(sc["people"]) == 3 and sc["array"]["name"] == "nao4"
+        assert sc["seed"] == seed
+    assert demo_scenario(2, 10.0) == demo_scenario(2, 10.0)
+    for people in (2, 4):  # avtrack demo --people N
+        assert len(demo_scenario(0, 10.0, people)["people"]) == people

@@ -46,8 +46,8 @@ def test_defaults_beat_sort_and_bytetrack_over_the_six_sequences(shared_data):
 
 @pytest.mark.parametrize("seq", ["TUD-Campus", "PETS09-S2L1"])
 def test_video_appearance_lifts_idf1_by_three_points(shared_data, seq):
-    from avtrack.cli.track_mot import VIDEO_DEFAULTS
     from avtrack.io.video import iter_frames, probe_video
+    from avtrack.pipelines.mot import VIDEO_DEFAULTS
     from avtrack.visual.histograms import detection_histograms
 
     dets, gt, size, n, fps = _load(shared_data, seq)

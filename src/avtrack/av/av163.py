@@ -28,8 +28,13 @@ from __future__ import annotations
 import numpy as np
 
 from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
-from avtrack.io.av163 import AV163_ARRAY_CENTRE, AV163_MOUTH_HEIGHT, IMAGE_SIZE, AV163Sequence
-from avtrack.io.camera import PinholeCamera
+from avtrack.io.av163 import (
+    AV163_ARRAY_CENTRE,
+    AV163_MOUTH_HEIGHT,
+    AV163Sequence,
+    av163_pinhole,
+    av163_roll,
+)
 
 
 class AV163View:
@@ -46,28 +51,13 @@ class AV163View:
 
     def __init__(self, seq: AV163Sequence, array_centre=AV163_ARRAY_CENTRE,
                  mouth_height: float = AV163_MOUTH_HEIGHT) -> None:
-        import cv2
-
         self.source = seq.camera
         self.centre = np.asarray(array_centre, dtype=float)
         self.mouth_height = float(mouth_height)
-        proj = seq.camera.pmat @ np.linalg.inv(seq.align_mat)  # room -> undistorted pixels
-        K, R, c_h = cv2.decomposeProjectionMatrix(proj)[:3]
-        K = K / K[2, 2]
-        if np.linalg.det(R) < 0:  # a mirrored decomposition: flip it back
-            R, K = -R, -K
-        forward = R[2]
-        yaw = float(np.degrees(np.arctan2(forward[1], forward[0])))
-        pitch = float(np.degrees(np.arcsin(np.clip(forward[2], -1.0, 1.0))))
-        position = (c_h[:3, 0] / c_h[3, 0]) - self.centre
-        width, height = IMAGE_SIZE
-        self.camera = PinholeCamera(fx=float(K[0, 0]), fy=float(K[1, 1]), cx=float(K[0, 2]),
-                                    cy=float(K[1, 2]), width=width, height=height,
-                                    position=position, yaw_deg=yaw, pitch_deg=pitch)
+        self.camera = av163_pinhole(seq, self.centre)
         # R = R_roll R_pinhole: the roll as a rotation of normalised coordinates
-        roll = R @ self.camera.R.T
-        self.roll = roll[:2, :2]
-        self.roll_deg = float(np.degrees(np.arctan2(roll[1, 0], roll[0, 0])))
+        self.roll = av163_roll(seq, self.camera)
+        self.roll_deg = float(np.degrees(np.arctan2(self.roll[1, 0], self.roll[0, 0])))
         self.geometry = CameraGeometry(self.camera, np.zeros(3), 0.0)
 
     # ------------------------------------------------------------------ pixels

@@ -408,19 +408,7 @@ def fit_camera(
     args = (ev, inl, fit_pitch, pitch_deg, pos)
     x = least_squares(_residuals, x, bounds=(lo, hi), args=args).x
     r = _residuals(x, *args)[: inl.shape[0]]
-    # block bootstrap of the inliers
-    rng = np.random.default_rng(seed)
-    block = np.floor(ev.time_s[inl] / BLOCK_S).astype(np.int64)
-    blocks = [np.flatnonzero(block == b) for b in np.unique(block)]
-    reps = []
-    for _ in range(n_bootstrap):
-        pick = rng.integers(0, len(blocks), len(blocks))
-        sub = inl[np.concatenate([blocks[j] for j in pick])]
-        sol = least_squares(_residuals, x, bounds=(lo, hi),
-                            args=(ev, sub, fit_pitch, pitch_deg, pos))
-        y = sol.x.copy()
-        y[0] = x[0] + float(wrap_azimuth(y[0] - x[0]))
-        reps.append(y)
+    reps = _bootstrap(x, (lo, hi), ev, inl, fit_pitch, pitch_deg, pos, n_bootstrap, seed)
     rep = np.asarray(reps).reshape(-1, x.shape[0])
     std = rep.std(axis=0, ddof=1) if rep.shape[0] > 1 else np.full(x.shape[0], np.nan)
     yaw, pitch, f = _params(x, fit_pitch, pitch_deg)
@@ -431,6 +419,28 @@ def fit_camera(
         camera, float(std[0]), float(std[2]) if fit_pitch else float("nan"), f_std,
         fit_pitch, ev.n_directions, int(inl.shape[0]), float(np.sqrt(np.mean(r**2))),
     )
+
+
+def _bootstrap(
+    x: np.ndarray, bounds: tuple[list[float], list[float]], ev: CameraEvidence,
+    inl: np.ndarray, fit_pitch: bool, pitch_deg: float, pos: np.ndarray, n_bootstrap: int,
+    seed: int,
+) -> list[np.ndarray]:
+    """Block bootstrap of the inliers (blocks of ``BLOCK_S``): ``n_bootstrap`` refits from
+    ``x``, each yaw unwrapped next to ``x``'s."""
+    rng = np.random.default_rng(seed)
+    block = np.floor(ev.time_s[inl] / BLOCK_S).astype(np.int64)
+    blocks = [np.flatnonzero(block == b) for b in np.unique(block)]
+    reps = []
+    for _ in range(n_bootstrap):
+        pick = rng.integers(0, len(blocks), len(blocks))
+        sub = inl[np.concatenate([blocks[j] for j in pick])]
+        sol = least_squares(_residuals, x, bounds=bounds,
+                            args=(ev, sub, fit_pitch, pitch_deg, pos))
+        y = sol.x.copy()
+        y[0] = x[0] + float(wrap_azimuth(y[0] - x[0]))
+        reps.append(y)
+    return reps
 
 
 def _too_little(n: int, total: int, need: int) -> str:

@@ -88,8 +88,56 @@ def _logsumexp(a: np.ndarray, axis: int) -> np.ndarray:
     return np.squeeze(m, axis) + np.log(np.sum(np.exp(a - m), axis=axis))
 
 
+#: The parameters of thesis eq. 4.14, in the order of the constructors and of the ``.npz`` file.
+_PARAMETERS = ("pi", "nu", "omega", "lmat", "lvec", "sigma")
+
+
 @dataclass(frozen=True)
-class GLLiM:
+class _Parameters:
+    """The parameter arrays of thesis eq. 4.14, of one GLLiM (:class:`GLLiM`, leading axis
+    ``R``) or of a stack of them (:class:`AudioImageMapping`, leading axes ``K, R``)."""
+
+    pi: np.ndarray
+    nu: np.ndarray
+    omega: np.ndarray
+    lmat: np.ndarray
+    lvec: np.ndarray
+    sigma: np.ndarray
+
+    def _checked(self, owner: str, axes: tuple[str, ...]) -> dict[str, np.ndarray]:
+        """The six arrays as float arrays, checked: ``pi (*axes)``, ``nu (*axes, P)``,
+        ``omega (*axes, P, P)``, ``lmat (*axes, D, P)``, ``lvec (*axes, D)``,
+        ``sigma (*axes, D, D)``, every value finite; errors start with ``owner``."""
+        n = len(axes)
+        pi = np.asarray(self.pi, dtype=float)
+        if pi.ndim != n or pi.size < 1:
+            raise ValueError(
+                f"{owner}: pi must be ({', '.join(axes)}) with sizes >= 1, got shape {pi.shape}"
+            )
+        lead = pi.shape
+        sizes = ", ".join(f"{a}={k}" for a, k in zip(axes, lead, strict=True))
+        nu = np.asarray(self.nu, dtype=float)
+        if nu.ndim != n + 1 or nu.shape[:n] != lead:
+            raise ValueError(f"{owner}: nu must be ({sizes}, P), got shape {nu.shape}")
+        lvec = np.asarray(self.lvec, dtype=float)
+        if lvec.ndim != n + 1 or lvec.shape[:n] != lead:
+            raise ValueError(f"{owner}: lvec must be ({sizes}, D), got shape {lvec.shape}")
+        p, d = nu.shape[n], lvec.shape[n]
+        arrays = {"pi": pi, "nu": nu, "lvec": lvec}
+        shapes = {"omega": (*lead, p, p), "lmat": (*lead, d, p), "sigma": (*lead, d, d)}
+        for name, shape in shapes.items():
+            a = np.asarray(getattr(self, name), dtype=float)
+            if a.shape != shape:
+                raise ValueError(f"{owner}: {name} must have shape {shape}, got {a.shape}")
+            arrays[name] = a
+        for name in _PARAMETERS:
+            if not np.all(np.isfinite(arrays[name])):
+                raise ValueError(f"{owner}: {name} must be finite")
+        return {name: arrays[name] for name in _PARAMETERS}
+
+
+@dataclass(frozen=True)
+class GLLiM(_Parameters):
     r"""One piecewise-affine model (thesis eq. 4.14 parameter set).
 
     Attributes
@@ -108,39 +156,12 @@ class GLLiM:
         :math:`\Sigma_r`, SPD (stored as full matrices whatever the training constraint).
     """
 
-    pi: np.ndarray
-    nu: np.ndarray
-    omega: np.ndarray
-    lmat: np.ndarray
-    lvec: np.ndarray
-    sigma: np.ndarray
-
     def __post_init__(self) -> None:
-        pi = np.asarray(self.pi, dtype=float)
-        if pi.ndim != 1 or pi.size < 1:
-            raise ValueError(f"GLLiM: pi must be (R,) with R >= 1, got shape {pi.shape}")
-        r = pi.size
-        nu = np.asarray(self.nu, dtype=float)
-        if nu.ndim != 2 or nu.shape[0] != r:
-            raise ValueError(f"GLLiM: nu must be (R={r}, P), got shape {nu.shape}")
-        p = nu.shape[1]
-        lvec = np.asarray(self.lvec, dtype=float)
-        if lvec.ndim != 2 or lvec.shape[0] != r:
-            raise ValueError(f"GLLiM: lvec must be (R={r}, D), got shape {lvec.shape}")
-        d = lvec.shape[1]
-        shapes = {"omega": (r, p, p), "lmat": (r, d, p), "sigma": (r, d, d)}
-        arrays = {"pi": pi, "nu": nu, "lvec": lvec}
-        for name, shape in shapes.items():
-            a = np.asarray(getattr(self, name), dtype=float)
-            if a.shape != shape:
-                raise ValueError(f"GLLiM: {name} must have shape {shape}, got {a.shape}")
-            arrays[name] = a
-        for name, a in arrays.items():
-            if not np.all(np.isfinite(a)):
-                raise ValueError(f"GLLiM: {name} must be finite")
+        for name, a in self._checked("GLLiM", ("R",)).items():
             a = a.copy()
             a.flags.writeable = False
             object.__setattr__(self, name, a)
+        pi = self.pi
         if np.any(pi <= 0) or abs(pi.sum() - 1.0) > 1e-6:
             raise ValueError(f"GLLiM: pi must be positive and sum to 1, got {pi}")
 
@@ -444,7 +465,7 @@ def fit_gllim(
 
 
 @dataclass(frozen=True)
-class AudioImageMapping:
+class AudioImageMapping(_Parameters):
     r"""One GLLiM per audio sub-band, stacked (thesis §4.3.4: "there are K models").
 
     Attributes
@@ -459,43 +480,12 @@ class AudioImageMapping:
         JSON-serialisable description (sub-band layout, array, camera image size, ...).
     """
 
-    pi: np.ndarray
-    nu: np.ndarray
-    omega: np.ndarray
-    lmat: np.ndarray
-    lvec: np.ndarray
-    sigma: np.ndarray
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        pi = np.asarray(self.pi, dtype=float)
-        if pi.ndim != 2:
-            raise ValueError(f"AudioImageMapping: pi must be (K, R), got shape {pi.shape}")
-        k, r = pi.shape
-        nu = np.asarray(self.nu, dtype=float)
-        lvec = np.asarray(self.lvec, dtype=float)
-        if nu.ndim != 3 or nu.shape[:2] != (k, r):
-            raise ValueError(f"AudioImageMapping: nu must be (K={k}, R={r}, P), got {nu.shape}")
-        if lvec.ndim != 3 or lvec.shape[:2] != (k, r):
-            raise ValueError(
-                f"AudioImageMapping: lvec must be (K={k}, R={r}, D), got {lvec.shape}"
-            )
-        p, d = nu.shape[2], lvec.shape[2]
-        shapes = {"omega": (k, r, p, p), "lmat": (k, r, d, p), "sigma": (k, r, d, d)}
-        for name in ("omega", "lmat", "sigma"):
-            a = np.asarray(getattr(self, name), dtype=float)
-            if a.shape != shapes[name]:
-                raise ValueError(
-                    f"AudioImageMapping: {name} must have shape {shapes[name]}, got {a.shape}"
-                )
+        for name, a in self._checked("AudioImageMapping", ("K", "R")).items():
             object.__setattr__(self, name, a)
-        object.__setattr__(self, "pi", pi)
-        object.__setattr__(self, "nu", nu)
-        object.__setattr__(self, "lvec", lvec)
         object.__setattr__(self, "meta", dict(self.meta))
-        for name in ("pi", "nu", "omega", "lmat", "lvec", "sigma"):
-            if not np.all(np.isfinite(getattr(self, name))):
-                raise ValueError(f"AudioImageMapping: {name} must be finite")
 
     @classmethod
     def from_models(
@@ -512,8 +502,7 @@ class AudioImageMapping:
                 f"AudioImageMapping.from_models: models must share (R, P, D), got {sorted(shapes)}"
             )
         pi, nu, omega, lmat, lvec, sigma = (
-            np.stack([getattr(m, n) for m in models])
-            for n in ("pi", "nu", "omega", "lmat", "lvec", "sigma")
+            np.stack([getattr(m, n) for m in models]) for n in _PARAMETERS
         )
         return cls(pi, nu, omega, lmat, lvec, sigma, meta or {})
 
@@ -536,7 +525,6 @@ class AudioImageMapping:
         return int(self.lvec.shape[2])
 
 
-_MAPPING_KEYS = ("pi", "nu", "omega", "lmat", "lvec", "sigma")
 FORMAT_VERSION = 1
 
 
@@ -545,7 +533,7 @@ def save_mapping(path: str | Path, mapping: AudioImageMapping) -> Path:
     path = Path(path)
     meta = json.dumps({"format": "avtrack-gllim", "version": FORMAT_VERSION, **mapping.meta})
     with atomic_write(path, "wb") as fh:
-        np.savez(fh, meta=np.array(meta), **{k: getattr(mapping, k) for k in _MAPPING_KEYS})
+        np.savez(fh, meta=np.array(meta), **{k: getattr(mapping, k) for k in _PARAMETERS})
     return path
 
 
@@ -562,10 +550,10 @@ def load_mapping(path: str | Path) -> AudioImageMapping:
         raise InputError("audio-to-image mapping not found", path)
     try:
         with np.load(path, allow_pickle=False) as data:
-            missing = [k for k in (*_MAPPING_KEYS, "meta") if k not in data.files]
+            missing = [k for k in (*_PARAMETERS, "meta") if k not in data.files]
             if missing:
                 raise InputError(f"not an avtrack GLLiM mapping: missing {missing}", path)
-            arrays = {k: np.array(data[k]) for k in _MAPPING_KEYS}
+            arrays = {k: np.array(data[k]) for k in _PARAMETERS}
             meta = json.loads(str(data["meta"]))
     except InputError:
         raise

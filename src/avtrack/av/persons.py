@@ -449,7 +449,6 @@ class PersonTracker:
         audio_azimuth_deg : ndarray (K,)
             Azimuths of the audio peaks of this frame (degrees, array frame).
         """
-        c = self.config
         vids = np.asarray(visual_ids, dtype=np.int64).reshape(-1)
         boxes = np.asarray(visual_boxes, dtype=float).reshape(-1, 4)
         if boxes.shape[0] != vids.shape[0]:
@@ -464,27 +463,56 @@ class PersonTracker:
         if not np.all(np.isfinite(audio)):
             raise ValueError("audio_azimuth_deg must be finite")
         self.frame += 1
+        self._predict()
+        person_of_visual, vis_rows, vis_obs, seen_centre = self._visual_update(
+            vids, boxes, app)
+        seen = np.zeros(self.n_persons, dtype=bool)
+        seen[vis_rows] = True
 
-        # --- prediction (eq. 2.21): mu <- D mu, Gamma <- D Gamma D^T + Q -------------------
-        d = self.transition
+        # --- VEM iterations: E-Z (audio) and E-S in information form ----------------------
+        speaking = np.zeros(self.n_persons)
+        unexplained = audio
         if self.n_persons:
-            # persons not seen at the last frame: velocity as AR(1), v <- ρ v + w (mean and
-            # covariance), so that a track carried by audio alone does not wander off
-            dn = np.broadcast_to(d, (self.n_persons, STATE_DIM, STATE_DIM)).copy()
-            unseen = self.unseen_run > 0
-            dn[unseen, 2, 2] = dn[unseen, 3, 3] = c.velocity_decay
-            self.mu = np.einsum("nij,nj->ni", dn, self.mu)
-            self.gamma = dn @ self.gamma @ np.transpose(dn, (0, 2, 1)) + self.process_cov
-            # in view but not seen for a while: the camera says the person is not where the
-            # state says, so the azimuth spreads until audio or vision finds them again
-            lost = self._in_view_now() & (self.unseen_run >= c.lost_frames)
-            if np.any(lost):
-                g = self.gamma[lost, 0, 0]  # add at most up to the cap (stays PSD)
-                self.gamma[lost, 0, 0] = g + np.clip(
-                    c.lost_max_std_deg**2 - g, 0.0, c.lost_noise_deg**2
-                )
+            speaking, unexplained = self._vem(seen, vis_rows, vis_obs, audio)
+        speaking, seen = self._bookkeeping(speaking, seen)
 
-        # --- visual tracks -> persons -------------------------------------------------------
+        # --- births from audio --------------------------------------------------------------
+        born = self._audio_birth(unexplained)
+        if born:
+            speaking = np.r_[speaking, np.zeros(born)]
+            seen = np.r_[seen, np.zeros(born, dtype=bool)]
+        return self._output(speaking, seen, seen_centre, vids, person_of_visual)
+
+    def _predict(self) -> None:
+        """Prediction (eq. 2.21): ``mu <- D mu``, ``Gamma <- D Gamma D^T + Q``."""
+        c = self.config
+        d = self.transition
+        if not self.n_persons:
+            return
+        # persons not seen at the last frame: velocity as AR(1), v <- ρ v + w (mean and
+        # covariance), so that a track carried by audio alone does not wander off
+        dn = np.broadcast_to(d, (self.n_persons, STATE_DIM, STATE_DIM)).copy()
+        unseen = self.unseen_run > 0
+        dn[unseen, 2, 2] = dn[unseen, 3, 3] = c.velocity_decay
+        self.mu = np.einsum("nij,nj->ni", dn, self.mu)
+        self.gamma = dn @ self.gamma @ np.transpose(dn, (0, 2, 1)) + self.process_cov
+        # in view but not seen for a while: the camera says the person is not where the
+        # state says, so the azimuth spreads until audio or vision finds them again
+        lost = self._in_view_now() & (self.unseen_run >= c.lost_frames)
+        if np.any(lost):
+            g = self.gamma[lost, 0, 0]  # add at most up to the cap (stays PSD)
+            self.gamma[lost, 0, 0] = g + np.clip(
+                c.lost_max_std_deg**2 - g, 0.0, c.lost_noise_deg**2
+            )
+
+    def _visual_update(
+        self, vids: np.ndarray, boxes: np.ndarray, app: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[int, np.ndarray]]:
+        """Visual tracks -> persons: link (or start) the person of each visual track, update
+        the seen persons' distance and appearance from their boxes. Returns the person id of
+        each visual track ``(M,)``, the rows of the seen persons ``(S,)``, their direction
+        observations ``(S, 2)`` and their box centres by person id."""
+        c = self.config
         v_az, v_el, v_dist = self.geometry.boxes_to_directions(boxes)
         person_of_visual = np.array([self.link.get(int(v), -1) for v in vids], dtype=np.int64)
         new = np.flatnonzero(person_of_visual < 0)
@@ -499,8 +527,6 @@ class PersonTracker:
         # box centre of each seen person (by id: rows move with deaths, merges and births)
         seen_centre = dict(zip(self.ids[vis_rows].tolist(),
                                boxes[first, :2] + 0.5 * boxes[first, 2:], strict=True))
-        seen = np.zeros(self.n_persons, dtype=bool)
-        seen[vis_rows] = True
         if vis_rows.size:  # distance and appearance from the boxes
             self.distance[vis_rows] = 0.8 * self.distance[vis_rows] + 0.2 * v_dist[first]
             if app is not None and self.appearance is not None:
@@ -513,15 +539,15 @@ class PersonTracker:
                 self.appearance[rows] = np.where(
                     fresh[:, None], a_new[ok], (1 - r) * old + r * a_new[ok]
                 )
+        return person_of_visual, vis_rows, vis_obs, seen_centre
 
-        # --- VEM iterations: E-Z (audio) and E-S in information form ----------------------
-        speaking = np.zeros(self.n_persons)
-        unexplained = audio
-        if self.n_persons:
-            speaking, unexplained = self._vem(seen, vis_rows, vis_obs, audio)
+    def _bookkeeping(
+        self, speaking: np.ndarray, seen: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Runs of silence and of not being seen, exclusion from the view, deaths and merges;
+        returns ``speaking`` and ``seen`` for the persons left."""
+        c = self.config
         heard = speaking >= c.heard_threshold
-
-        # --- bookkeeping, velocity decay, death, merging -------------------------------------
         self.quiet_run = np.where(seen | heard, 0, self.quiet_run + 1)
         self.unseen_run = np.where(seen, 0, self.unseen_run + 1)
         self.evidence = self.evidence + (seen | heard)
@@ -539,14 +565,14 @@ class PersonTracker:
             self._keep(keep, died=True)
         horizon = self.frame - c.revive_s * self.fps
         self.ended = {k: v for k, v in self.ended.items() if v[0] >= horizon}
-        speaking, seen = self._merge(speaking, seen)
+        return self._merge(speaking, seen)
 
-        # --- births from audio --------------------------------------------------------------
-        born = self._audio_birth(unexplained)
-        if born:
-            speaking = np.r_[speaking, np.zeros(born)]
-            seen = np.r_[seen, np.zeros(born, dtype=bool)]
-
+    def _output(
+        self, speaking: np.ndarray, seen: np.ndarray, seen_centre: dict[int, np.ndarray],
+        vids: np.ndarray, person_of_visual: np.ndarray,
+    ) -> PersonFrame:
+        """The frame's :class:`PersonFrame` (wraps the azimuths, clips the elevations)."""
+        c = self.config
         # --- output -------------------------------------------------------------------------
         az = wrap_azimuth(self.mu[:, 0])
         self.mu[:, 0] = az

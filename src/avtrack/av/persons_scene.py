@@ -249,16 +249,7 @@ def track_persons(
         cat["px"].reshape(-1, 2), cat["view"].astype(bool), cat["speak"], fps,
         cat["side"].astype(np.int64),
     )
-    keep = person_ids >= 0  # a person merged away in the frame its track was linked
-    # One box per person and frame (a MOT result never repeats an id in a frame): when two
-    # visual tracks stand for one person, the tracker used the first; so does the output.
-    row_key = vis.frames.astype(np.int64) * (int(person_ids.max(initial=0)) + 2) + person_ids
-    _, first = np.unique(np.where(keep, row_key, -1 - np.arange(len(row_key))),
-                         return_index=True)
-    dup = np.ones(len(row_key), dtype=bool)
-    dup[first] = False
-    keep &= ~dup
-    tracks = MOTData(vis.frames[keep], person_ids[keep], vis.boxes[keep], vis.scores[keep])
+    tracks = _person_boxes(vis, person_ids)
     # speaking flag of each box: its person's at that frame
     thr = tracker.config.speaking_threshold
     key = {(int(f), int(i)): s >= thr for f, i, s in zip(
@@ -267,21 +258,47 @@ def track_persons(
         tracks.frames, tracks.ids, strict=True)], dtype=bool)
     speech: list[RTTMSegment] = []
     if peaks is not None:
-        speech = speaking_segments(
-            persons.frames, persons.ids, persons.speaking >= tracker.config.speaking_threshold,
-            fps, max_gap=diarization_gap, min_duration=diarization_min,
-        )
-        if heat is not None and grid is not None and activity is not None:
-            speech = _fused_speech(persons, speech, heat, grid, activity)
-        total: dict[str, float] = {}
-        for seg in speech:
-            total[seg.speaker] = total.get(seg.speaker, 0.0) + seg.duration
-        speech = [seg for seg in speech if total[seg.speaker] >= min_speaker_s]
+        speech = _speaker_turns(persons, thr, diarization_gap, diarization_min, min_speaker_s,
+                                heat, grid, activity)
     timing = {"duration": n_frames / fps, "visual": t1 - t0, "persons": t2 - t1}
     w = geometry.image_size[0]
     return PersonsResult(tracks, speaking, persons, speech, n_frames, fps,
                          fov if fov is not None else (0.0, float(w)),
                          (geometry.image_size[0], geometry.image_size[1]), timing)
+
+
+def _person_boxes(vis: MOTData, person_ids: np.ndarray) -> MOTData:
+    """The visual tracks' boxes under their persons' ids ``(len(vis),)``: one box per person
+    and frame (a MOT result never repeats an id in a frame): when two visual tracks stand for
+    one person, the tracker used the first; so does the output."""
+    keep = person_ids >= 0  # a person merged away in the frame its track was linked
+    row_key = vis.frames.astype(np.int64) * (int(person_ids.max(initial=0)) + 2) + person_ids
+    _, first = np.unique(np.where(keep, row_key, -1 - np.arange(len(row_key))),
+                         return_index=True)
+    dup = np.ones(len(row_key), dtype=bool)
+    dup[first] = False
+    keep &= ~dup
+    return MOTData(vis.frames[keep], person_ids[keep], vis.boxes[keep], vis.scores[keep])
+
+
+def _speaker_turns(
+    persons: PersonsTable, threshold: float, gap: float, min_duration: float,
+    min_speaker_s: float, heat: HeatMaps | None, grid: DirectionGrid | None,
+    activity: VoiceActivity | None,
+) -> list[RTTMSegment]:
+    """Speaker turns of the persons speaking at or above ``threshold`` (fused with the voice
+    activity when ``heat``, ``grid`` and ``activity`` are all given); speakers with less than
+    ``min_speaker_s`` of speech in all are dropped."""
+    speech = speaking_segments(
+        persons.frames, persons.ids, persons.speaking >= threshold,
+        persons.fps, max_gap=gap, min_duration=min_duration,
+    )
+    if heat is not None and grid is not None and activity is not None:
+        speech = _fused_speech(persons, speech, heat, grid, activity)
+    total: dict[str, float] = {}
+    for seg in speech:
+        total[seg.speaker] = total.get(seg.speaker, 0.0) + seg.duration
+    return [seg for seg in speech if total[seg.speaker] >= min_speaker_s]
 
 
 def _fused_speech(

@@ -566,6 +566,40 @@ def track_scene(
         )
     if mapping is None:
         raise ValueError("track_scene: use_audio needs an audio-to-image mapping")
+    features = _scene_features(sc, mapping, features, feature_config, timing)
+    t0 = time.perf_counter()
+    tracker = VAVITracker(mapping, config, sc.image_size, fov, record_precisions)
+    frames = tracker._frame_observations(dets, app, sc.n_frames)
+    rows: list[AVFrameTracks] = []
+    for t, obs in enumerate(frames):
+        bands, g = features.frame(t)
+        rows.append(tracker._step_av(obs, bands, g))
+    timing["tracking"] = time.perf_counter() - t0
+    tracks, speaking, prec = _stack_rows(rows, record_precisions)
+    speech = speaking_segments(
+        tracks.frames,
+        tracks.ids,
+        speaking,
+        sc.fps,
+        max_gap=diarization_gap,
+        min_duration=diarization_min,
+    )
+    if unseen_speakers:  # speech no tracked person claims: people never seen
+        claimed = np.zeros(len(features), bool)  # len(features) >= n_frames, checked above
+        claimed[tracks.frames[speaking] - 1] = True
+        unseen = diarize_unseen(features, mapping, sc.fps, claimed)
+        speech = sorted(speech + unseen, key=lambda s: (s.start, s.speaker))
+    return AVSceneResult(
+        tracks, speaking, speech, prec, sc.n_frames, sc.fps, sc.image_size, fov, timing
+    )
+
+
+def _scene_features(
+    sc: SceneInputs, mapping: AudioImageMapping, features: AudioFeatures | None,
+    feature_config: AudioFeatureConfig | None, timing: dict[str, float],
+) -> AudioFeatures:
+    """The scene's audio observations (extracted from its audio unless given), checked
+    against the mapping; the extraction's time goes to ``timing["features"]``."""
     fcfg = feature_config or AudioFeatureConfig(fps=sc.fps)
     if features is None:
         expected = mapping.meta.get("n_mics")
@@ -591,46 +625,26 @@ def track_scene(
             f"another microphone array?",
             sc.path / "audio.wav",
         )
-    t0 = time.perf_counter()
-    tracker = VAVITracker(mapping, config, sc.image_size, fov, record_precisions)
-    frames = tracker._frame_observations(dets, app, sc.n_frames)
-    rows: list[AVFrameTracks] = []
-    for t, obs in enumerate(frames):
-        bands, g = features.frame(t)
-        rows.append(tracker._step_av(obs, bands, g))
-    timing["tracking"] = time.perf_counter() - t0
+    return features
+
+
+def _stack_rows(
+    rows: list[AVFrameTracks], record_precisions: bool
+) -> tuple[MOTData, np.ndarray, np.ndarray | None]:
+    """The per-frame outputs as one table: tracks, speaking flags ``(N,)`` and (with
+    ``record_precisions``) the precision terms ``(N, 3, 2, 2)``."""
     counts = [len(r.ids) for r in rows]
+    if not (rows and sum(counts)):
+        empty = MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
+        return empty, np.zeros(0, bool), np.zeros((0, 3, 2, 2)) if record_precisions else None
     frame_no = np.repeat(np.arange(1, len(rows) + 1), counts)
 
-    def cat(name: str) -> np.ndarray:  # (called only when rows is not empty)
+    def cat(name: str) -> np.ndarray:
         return np.concatenate([getattr(r, name) for r in rows])
 
-    if rows and sum(counts):
-        tracks = MOTData(
-            frame_no, cat("ids"), np.vstack([r.boxes for r in rows]), cat("p_visible")
-        )
-        speaking = cat("speaking")
-        prec = np.concatenate([r.precisions for r in rows]) if record_precisions else None
-    else:
-        tracks = MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
-        speaking = np.zeros(0, bool)
-        prec = np.zeros((0, 3, 2, 2)) if record_precisions else None
-    speech = speaking_segments(
-        tracks.frames,
-        tracks.ids,
-        speaking,
-        sc.fps,
-        max_gap=diarization_gap,
-        min_duration=diarization_min,
-    )
-    if unseen_speakers:  # speech no tracked person claims: people never seen
-        claimed = np.zeros(len(features), bool)  # len(features) >= n_frames, checked above
-        claimed[tracks.frames[speaking] - 1] = True
-        unseen = diarize_unseen(features, mapping, sc.fps, claimed)
-        speech = sorted(speech + unseen, key=lambda s: (s.start, s.speaker))
-    return AVSceneResult(
-        tracks, speaking, speech, prec, sc.n_frames, sc.fps, sc.image_size, fov, timing
-    )
+    tracks = MOTData(frame_no, cat("ids"), np.vstack([r.boxes for r in rows]), cat("p_visible"))
+    prec = np.concatenate([r.precisions for r in rows]) if record_precisions else None
+    return tracks, cat("speaking"), prec
 
 
 def with_visual(config: VAVITConfig, **visual) -> VAVITConfig:

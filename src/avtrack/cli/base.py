@@ -4,17 +4,16 @@ Each sub-command module defines ``register(subparsers)`` that adds its parser an
 ``func`` (a callable ``args -> int`` exit status) with ``parser.set_defaults(func=...)``.
 Modules are listed in :data:`avtrack.cli.main.COMMAND_MODULES`.
 
-``--config FILE.yaml`` comes in two kinds, with one error wording (that of the scenario and
-suite files: ``FILE: a.b: what is wrong``):
-
-* a library config dataclass (``OVBTConfig``, ``PHDConfig`` ...):
-  :func:`avtrack.config.load_config` reads the file and checks it field by field against the
-  dataclass;
-* the command's own options (``demo``, ``simulate``, ``eval``, ``batch``):
-  :func:`add_config_option` adds ``--config`` whose keys are the options' names.
-
-In both, options given on the command line override the file, and the file is checked before
-any input is read, so a bad file fails at once.
+``--config FILE.yaml`` holds the parameters of the command's algorithm where the command runs
+one (``track-mot``, ``track-phd``, ``localize``, ``track-audio`` ...): the fields of its config
+dataclass (``OVBTConfig``, ``PHDConfig`` ...), added by :func:`add_algorithm_config_option`
+and read by :func:`avtrack.config.load_config`, which checks the file field by field against
+the dataclass. A command that runs no single algorithm (``demo``, ``simulate``, ``eval``,
+``batch``) takes its own option values instead: :func:`add_config_option` adds ``--config``
+whose keys are the options' names. Either way the errors have one wording (that of the
+scenario and suite files: ``FILE: a.b: what is wrong``), options given on the command line
+override the file, and the file is checked before any input is read, so a bad file fails at
+once.
 """
 
 from __future__ import annotations
@@ -92,22 +91,69 @@ def add_array_option(
     )
 
 
+def add_algorithm_config_option(
+    parser: argparse.ArgumentParser, fields: str, note: str = ""
+) -> None:
+    """``--config FILE.yaml``: the parameters of the command's algorithm, a YAML mapping of the
+    fields of its config dataclass (``fields``, in words: ``"OVBTConfig"``; ``note`` adds to
+    the help). The command reads it with :func:`avtrack.config.load_config`; options that set
+    a field on the command line win over the file."""
+    parser.add_argument(
+        "--config",
+        type=Path,
+        metavar="FILE.yaml",
+        help=f"the algorithm's parameters: a YAML mapping of {fields} fields{note} (see the "
+        "examples below)",
+    )
 
 
+def add_grid_options(parser: argparse.ArgumentParser, example: str, use: str) -> None:
+    """``--grid-step DEG`` and ``--elevations E1,E2,...``: a localizer's candidate directions
+    (:func:`grid_from_options` builds them); ``example`` and ``use`` complete the help of
+    ``--elevations`` (an example value, what the command does with the elevations)."""
+    parser.add_argument(
+        "--grid-step",
+        type=float,
+        default=5.0,
+        metavar="DEG",
+        help="azimuth spacing of the candidate directions (default 5)",
+    )
+    parser.add_argument(
+        "--elevations",
+        metavar="E1,E2,...",
+        help=f"candidate elevations in degrees, e.g. --elevations={example} (default: "
+        "0,20,40,60 for a planar array, -40..60 for a 3-D one, 0 for a line of microphones "
+        f"or an HRIR array; {use})",
+    )
 
 
+def grid_from_options(step_deg: float, elevations: str | None, array: Any) -> Any:
+    """The :class:`~avtrack.localize.DirectionGrid` of ``--grid-step`` and ``--elevations``
+    (default: the elevations the microphone array ``array`` can tell apart,
+    :meth:`~avtrack.localize.DirectionGrid.for_array`); a bad value is an error naming its
+    option."""
+    from avtrack.localize import DirectionGrid  # (avtrack --help imports no NumPy)
+
+    try:
+        DirectionGrid.azimuths(step_deg)
+    except ValueError as exc:
+        raise InputError(f"--grid-step: {exc}") from None
+    try:
+        return DirectionGrid.from_options(step_deg, elevations, array)
+    except ValueError as exc:
+        raise InputError(f"--elevations: {exc}") from None
 
 
+def write_json(path: Path, record: Mapping[str, Any]) -> None:
+    """Write ``record`` as JSON indented by 2, with a final newline, atomically (the scores
+    files of ``--json`` and the reports)."""
+    import json
 
+    from avtrack.io.base import atomic_write  # (avtrack --help imports no NumPy)
 
-
-
-
-
-
-
-
-
+    with atomic_write(path) as fh:
+        json.dump(record, fh, indent=2)
+        fh.write("\n")
 
 
 # -- options from a file --------------------------------------------------------------------
@@ -200,8 +246,8 @@ def add_config_option(parser: argparse.ArgumentParser, exclude: tuple[str, ...] 
         "--config",
         type=Path,
         metavar="FILE.yaml",
-        help=f"option values from a YAML mapping (keys: {keys}); options given on the "
-        "command line win",
+        help=f"this command's option values from a YAML mapping (keys: {keys}); options "
+        "given on the command line win",
     )
 
     @functools.wraps(func)
@@ -292,9 +338,16 @@ def check_outputs(args: argparse.Namespace) -> None:
 
 __all__ = [
     "HelpFormatter",
+    "add_algorithm_config_option",
+    "add_array_option",
+    "add_clipping_option",
     "add_command",
     "add_common",
     "add_config_option",
+    "add_grid_options",
+    "add_output_option",
     "apply_config_file",
     "check_outputs",
+    "grid_from_options",
+    "write_json",
 ]

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.cli import progress
+from avtrack.cli.base import write_json
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
 
@@ -21,26 +22,6 @@ STEPS = (
     "tracking the talkers from audio alone",
     "scoring and writing the report",
 )
-
-
-def demo_scenario(seed: int, duration: float, people: int = 3) -> dict:
-    """The default meeting: 3 people in front of a NAO-like 4-mic array (free field) and camera.
-
-    The named ``meeting`` scene draws 2-4 people; the first of the seeds ``seed, seed + 1000,
-    ...`` that gives ``people`` people is used, so the demo scene depends on ``seed`` (and
-    ``people``) only.
-    """
-    from avtrack.io.scenario import validate_scenario
-    from avtrack.simulate.library import named_scenario
-
-    for k in range(100):
-        raw = named_scenario("meeting", seed + 1000 * k, duration)
-        if len(raw["people"]) == people:
-            break
-    raw["seed"] = seed
-    raw["name"] = "demo-meeting"
-    raw["array"] = {**raw["array"], "name": "nao4", "hrir": False}
-    return validate_scenario(raw)
 
 
 def _progress(step: int, quiet: bool) -> float:
@@ -56,6 +37,7 @@ def run_av(args: argparse.Namespace) -> int:
     from avtrack.io.mot import write_mot
     from avtrack.io.rttm import write_rttm
     from avtrack.io.scene import load_scene
+    from avtrack.simulate.library import demo_scenario
     from avtrack.simulate.scene import simulate_scene, write_scene
 
     out = _check_arguments(args)
@@ -123,12 +105,12 @@ def _localize(array, audio: np.ndarray, inputs, quiet: bool):
         audio_peaks,
         localizer_grid,
     )
-    from avtrack.cli.localize import localize_signal
     from avtrack.localize import make_localizer
 
     grid = localizer_grid(array)
     loc = make_localizer(PERSONS_LOCALIZER, array, grid)
-    heat = localize_signal(loc, audio, None, quiet)
+    with progress.activity(f"localizing {audio.shape[1] / loc.fs:.1f} s", quiet):
+        heat = loc.run(audio)
     peaks = audio_peaks(heat.weights, heat.time_s, grid, inputs.fps, inputs.n_frames,
                         floor=audio_peak_floor(PERSONS_LOCALIZER))
     span = 360.0 if grid.circular else float(np.ptp(grid.azimuth_values) + 5.0)
@@ -219,7 +201,5 @@ def _write_report(
                  "azimuth when out of the image")  # fmt: skip
     report.write_report(out / "index.html", "avtrack demo: a simulated meeting", scores,
                         figures, notes, video=videos[0], video_links=videos)  # fmt: skip
-    with atomic_write(out / "scores.json") as fh:
-        json.dump({k: (None if isinstance(v, float) and np.isnan(v) else v)
-                   for k, v in scores.items()}, fh, indent=2)  # fmt: skip
-        fh.write("\n")
+    write_json(out / "scores.json", {k: (None if isinstance(v, float) and np.isnan(v) else v)
+                                      for k, v in scores.items()})

@@ -10,15 +10,14 @@ while persons are out of the camera's view; ``voices`` — SI-SDR of the voices 
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from avtrack.audio.stft import FRAME_HOP_S
-from avtrack.cli.base import add_command, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_config_option, write_json
 from avtrack.errors import InputError
-from avtrack.io.base import atomic_write, read_audio_file
+from avtrack.io.base import read_audio_file
 from avtrack.io.mot import read_mot
 from avtrack.metrics.mot import BENCHMARKS, TABLE_COLUMNS, evaluate_mot, format_table
 
@@ -308,11 +307,8 @@ def run_doa(args: argparse.Namespace) -> int:
             d["lag_s"] = res.lag_s
             d["MAE_at_lag"] = float(res.mae[res.shifts == lag][0])
     if args.json is not None:
-        with atomic_write(args.json) as fh:
-            record = {"gt": str(args.gt), "estimates": str(args.estimates),
-                      "threshold": threshold, "scores": d}  # fmt: skip
-            json.dump(record, fh, indent=2)
-            fh.write("\n")
+        write_json(args.json, {"gt": str(args.gt), "estimates": str(args.estimates),
+                               "threshold": threshold, "scores": d})
     if not args.quiet:
         which = "active rows" if threshold is None else f"weight >= {threshold:.4g}"
         print(f"DOA scores of {args.estimates} against {args.gt} ({which}):")
@@ -338,15 +334,8 @@ def run_mot(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise InputError(f"cannot score {args.result} against {args.gt}: {exc}") from None
     if args.json is not None:
-        record = {
-            "gt": str(args.gt),
-            "result": str(args.result),
-            "benchmark": args.benchmark,
-            "scores": scores.as_dict(),
-        }
-        with atomic_write(args.json) as fh:
-            json.dump(record, fh, indent=2)
-            fh.write("\n")
+        write_json(args.json, {"gt": str(args.gt), "result": str(args.result),
+                               "benchmark": args.benchmark, "scores": scores.as_dict()})
     if not args.quiet:
         columns = TABLE_COLUMNS + (VERBOSE_COLUMNS if args.verbose else ())
         print(
@@ -398,11 +387,9 @@ def run_der(args: argparse.Namespace) -> int:
     scores["hypothesis_speakers"] = len({s.speaker for s in hyp})
     scores["no_collar"] = table["no_collar"]
     if args.json is not None:
-        with atomic_write(args.json) as fh:
-            json.dump({"reference": str(args.reference), "hypothesis": str(args.hypothesis),
-                       "collar": args.collar, "skip_overlap": args.skip_overlap,
-                       "scores": scores}, fh, indent=2)
-            fh.write("\n")
+        write_json(args.json, {"reference": str(args.reference),
+                               "hypothesis": str(args.hypothesis), "collar": args.collar,
+                               "skip_overlap": args.skip_overlap, "scores": scores})
     if not args.quiet:
         print(f"DER of {args.hypothesis} against {args.reference} (percent of the scored "
               f"reference speech; lower is better; speakers: {scores['hypothesis_speakers']} "
@@ -445,12 +432,10 @@ def run_persons(args: argparse.Namespace) -> int:
     scores = {"offscreen_mae_deg": s.mae_deg, "coverage": s.coverage,
               "offscreen_person_frames": s.n_frames, "matched": s.n_matched}
     if args.json is not None:
-        with atomic_write(args.json) as fh:
-            json.dump({"scene": str(args.scene), "persons": str(args.persons),
-                       "fov_fraction": args.fov_fraction, "gate_deg": args.gate,
-                       "scores": {k: (None if isinstance(v, float) and v != v else v)
-                                  for k, v in scores.items()}}, fh, indent=2)
-            fh.write("\n")
+        write_json(args.json, {"scene": str(args.scene), "persons": str(args.persons),
+                               "fov_fraction": args.fov_fraction, "gate_deg": args.gate,
+                               "scores": {k: (None if isinstance(v, float) and v != v else v)
+                                          for k, v in scores.items()}})
     if not args.quiet:
         if s.n_frames == 0:
             print(f"{args.scene}: every person is in the camera's view at every frame; nothing "
@@ -535,12 +520,10 @@ def run_voices(args: argparse.Namespace) -> int:
         def clean(v):
             return None if isinstance(v, float) and not np.isfinite(v) else v
 
-        with atomic_write(args.json) as fh:
-            json.dump({"output": str(args.result_dir), "scene": str(args.scene),
-                       "gate_deg": args.gate, "mean_si_sdri_db": clean(mean),
-                       "persons": [{k: clean(v) for k, v in r.items()} for r in rows]},
-                      fh, indent=2)
-            fh.write("\n")
+        write_json(args.json, {"output": str(args.result_dir), "scene": str(args.scene),
+                               "gate_deg": args.gate, "mean_si_sdri_db": clean(mean),
+                               "persons": [{k: clean(v) for k, v in r.items()}
+                                           for r in rows]})
     if not args.quiet:
         print(f"voices of {args.result_dir} against {args.scene} (dB, higher is better):")
         print("  person  track  SI-SDR  mic 0  SI-SDRi  seen while speaking")

@@ -11,18 +11,23 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
 
-import numpy as np
-
-from avtrack.audio.arrays import MicArray, load_array
+from avtrack.audio.arrays import load_array
 from avtrack.audio.recording import BLOCK_SECONDS, FS, ArrayRecording
 from avtrack.cli import progress
-from avtrack.cli.base import add_array_option, add_clipping_option, add_command, add_common
+from avtrack.cli.base import (
+    add_algorithm_config_option,
+    add_array_option,
+    add_clipping_option,
+    add_command,
+    add_common,
+    add_grid_options,
+    grid_from_options,
+)
 from avtrack.config import load_config
 from avtrack.errors import InputError
 from avtrack.io.doa import DOACsvWriter, read_doa_csv
-from avtrack.localize import LOCALIZERS, DirectionGrid, make_localizer
+from avtrack.localize import LOCALIZERS, make_localizer
 from avtrack.localize.grid import elevation_support
 from avtrack.metrics.doa import evaluate_doa, roc_sweep
 from avtrack.pipelines import localize_recording
@@ -102,21 +107,9 @@ rate than 16 kHz is resampled.""",
         help="also write weaker peaks down to F with active=0 (for ROC sweeps)",
     )
     p.add_argument("--max-peaks", type=int, metavar="K", help="at most K peaks per frame")
-    p.add_argument(
-        "--grid-step",
-        type=float,
-        default=5.0,
-        metavar="DEG",
-        help="azimuth spacing of the candidate directions (default 5)",
-    )
-    p.add_argument(
-        "--elevations",
-        metavar="E1,E2,...",
-        help="candidate elevations in degrees, e.g. --elevations=-20,0,20 (default: 0,20,40,60 "
-        "for a planar array, -40..60 for a 3-D one, 0 for a line of microphones or an HRIR "
-        "array; peaks are taken over azimuth, at the elevation of their largest value)",
-    )
-    p.add_argument("--config", type=Path, metavar="FILE.yaml", help="the method's parameters")
+    add_grid_options(p, "-20,0,20", "peaks are taken over azimuth, at the elevation of "
+                     "their largest value")
+    add_algorithm_config_option(p, "the --method's Config")
     p.add_argument(
         "--block-size",
         type=int,
@@ -145,42 +138,8 @@ rate than 16 kHz is resampled.""",
     add_common(p, run)
 
 
-
-
-def load_method_config(method: str, path: Path | None) -> Any:
-    """The method's ``Config`` from a YAML file (default parameters without one); nested
-    ``dprtf:`` / ``noise:`` mappings override the method's default feature settings."""
-    return load_config(path, LOCALIZERS[method].Config)
-
-
-def localize_signal(localizer, x: np.ndarray, block_size: int | None, quiet: bool):
-    """``localizer.run(x, block_size)`` with a progress bar (over the blocks when fed in
-    blocks, elapsed time otherwise: the batch call gives no intermediate progress)."""
-    seconds = x.shape[1] / localizer.fs
-    desc = f"localizing {seconds:.1f} s"
-    if block_size is None:
-        with progress.activity(desc, quiet):
-            return localizer.run(x)
-    n_blocks = -(-x.shape[1] // block_size)
-    with progress.counting(localizer, "process", n_blocks, desc, "block", quiet):
-        return localizer.run(x, block_size)
-
-
-def make_grid(step_deg: float, elevations: str | None, array: MicArray) -> DirectionGrid:
-    """The candidate grid of ``--grid-step`` and ``--elevations`` (default: the elevations
-    ``array`` can tell apart, :meth:`DirectionGrid.for_array`)."""
-    try:
-        DirectionGrid.azimuths(step_deg)
-    except ValueError as exc:
-        raise InputError(f"--grid-step: {exc}") from None
-    try:
-        return DirectionGrid.from_options(step_deg, elevations, array)
-    except ValueError as exc:
-        raise InputError(f"--elevations: {exc}") from None
-
-
 def run(args: argparse.Namespace) -> int:
-    config = load_method_config(args.method, args.config)
+    config = load_config(args.config, LOCALIZERS[args.method].Config)
     array = load_array(args.array)
     if args.max_peaks is not None and args.max_peaks < 1:
         raise InputError(f"--max-peaks must be >= 1, got {args.max_peaks}")
@@ -188,7 +147,7 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--block-size must be >= 1, got {args.block_size}")
     if args.roc and args.truth is None:
         raise InputError("--roc needs --truth GT.csv")
-    grid = make_grid(args.grid_step, args.elevations, array)
+    grid = grid_from_options(args.grid_step, args.elevations, array)
     truth = read_doa_csv(args.truth) if args.truth is not None else None
     block_s = BLOCK_SECONDS if args.block_size is None else args.block_size / FS
     recording = ArrayRecording(args.audio, array, args.allow_clipping, args.quiet, block_s)

@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "robot_sim",
     "track_phd",
     "eval_cmd",
+    "convert",
     "batch",
 )
 
@@ -47,6 +48,7 @@ COMMAND_HELP = {
     "robot-sim": "simulate a moving robot head tracking and servoing people (thesis §3.2)",
     "track-phd": "audio-visual SMC-PHD tracking of AV16.3 (particle flow, Liu et al.)",
     "eval": "score a result against ground truth",
+    "convert": "a dataset's files as track-av's inputs (DOA CSV, CAMERA.yaml)",
     "batch": "run a manifest of recordings x commands x parameters (serially, in processes or "
              "on a Dask cluster), scored, resumable",
 }

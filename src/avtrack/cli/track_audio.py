@@ -23,13 +23,15 @@ import numpy as np
 from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.cli import progress
 from avtrack.cli.base import (
+    add_algorithm_config_option,
     add_array_option,
     add_clipping_option,
     add_command,
     add_common,
+    add_grid_options,
     add_output_option,
+    grid_from_options,
 )
-from avtrack.cli.localize import load_method_config, make_grid
 from avtrack.config import load_config
 from avtrack.doa.base import (
     OBSERVATION_MODES,
@@ -104,20 +106,8 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         help="localizer for AUDIO.wav (avtrack localize --method; default dprtf-eg-fast; "
         "dprtf-eg is the thesis's estimator)",
     )
-    p.add_argument(
-        "--grid-step",
-        type=float,
-        default=5.0,
-        metavar="DEG",
-        help="azimuth spacing of the candidate directions (default 5)",
-    )
-    p.add_argument(
-        "--elevations",
-        metavar="E1,E2,...",
-        help="candidate elevations in degrees, e.g. --elevations=0 for azimuth only (default: "
-        "0,20,40,60 for a planar array, -40..60 for a 3-D one, 0 for a line of microphones "
-        "or an HRIR array; the trackers follow the map summed over elevation)",
-    )
+    add_grid_options(p, "0 for azimuth only", "the trackers follow the map summed over "
+                     "elevation")
     p.add_argument(
         "--observations",
         choices=OBSERVATION_MODES,
@@ -134,14 +124,11 @@ array frame, counter-clockwise from x, in (-180, 180].""",
         metavar="K",
         help="one tracker update per K localizer frames (default 4 = 32 ms)",
     )
-    p.add_argument(
-        "--config",
-        type=Path,
-        metavar="FILE.yaml",
-        help="tracker parameters (GaussConfig / VonMisesConfig fields) over the defaults for "
-        "the localizer's maps; on dprtf-eg-fast maps the trackers report the direction "
-        "predicted 0.15 s ahead (latency compensation; 'lead_s: 0' reports the filtered one)",
-    )
+    add_algorithm_config_option(
+        p, "the --tracker's GaussConfig / VonMisesConfig",
+        ", over its defaults for the localizer's maps (on dprtf-eg-fast maps the trackers report "
+        "the direction predicted 0.15 s ahead, latency compensation; 'lead_s: 0' reports the "
+        "filtered one)")
     p.add_argument(
         "--plot",
         type=Path,
@@ -274,12 +261,12 @@ def _track_audio_file(
     if args.method not in LOCALIZERS:
         raise InputError(f"--method must be one of {sorted(LOCALIZERS)}, got {args.method!r}")
     array = load_array(args.array)
-    grid = make_grid(args.grid_step, args.elevations, array)
+    grid = grid_from_options(args.grid_step, args.elevations, array)
     recording = ArrayRecording(args.audio, array, args.allow_clipping, args.quiet)
     stream = DOAStream(
         array, method=args.method, tracker=args.tracker, step=args.step,
         observations=observations, grid=grid,
-        method_config=load_method_config(args.method, None), tracker_config=config,
+        method_config=LOCALIZERS[args.method].Config(), tracker_config=config,
     )
     with DOACsvWriter(args.output) as out, progress.minutes(
         recording.info.duration_s, f"tracking {args.audio.name}", args.quiet

@@ -5,27 +5,24 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-import time
+from functools import partial
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common
+from avtrack.cli.base import add_algorithm_config_option, add_command, add_common
 from avtrack.config import load_config
 from avtrack.errors import InputError
-from avtrack.io.datasets import find_seqinfo, read_seqinfo
-from avtrack.io.mot import read_mot, write_mot
+from avtrack.io.mot import write_mot
+from avtrack.io.video import VideoInfo, iter_frames
+from avtrack.pipelines import mot
+from avtrack.pipelines.mot import check_against_video, load_appearance
 from avtrack.visual.detect import DEFAULT_PERSON_DETECTOR, DETECTORS
-from avtrack.visual.ovbt import OVBTConfig, image_size_from_detections, track_mot
 
-#: OVBTConfig fields that ``--video`` changes (before ``--config``): the weight of the person
-#: colour histograms in the association (λ of eq. 3.5; IDF1 gains are flat for λ in 4-10) and
-#: re-identification of a target that ended lately. Chosen on TUD-Campus and PETS09-S2L1, the
-#: two shared sequences with video (BENCHMARKS.md).
-VIDEO_DEFAULTS: dict[str, Any] = {"appearance_lambda": 5.0, "reid_log_ratio": 0.2,
-                                  "reid_max_age": 25, "reid_max_distance": 4.0}
+# ``check_against_video``, ``detect_in_video`` and ``load_appearance`` are also what
+# ``avtrack track-av`` runs on its own detections.
+__all__ = ["check_against_video", "detect_in_video", "load_appearance", "register", "run"]
 
 EXAMPLES = """\
 examples:
@@ -99,8 +96,8 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                    help="with --video: write DIR/index.html and DIR/tracks.webm, the tracks "
                    "drawn over the video's own frames (with the scores and the ground truth "
                    "outlined when the sequence folder has gt/gt.txt)")
-    p.add_argument("--config", type=Path, metavar="FILE.yaml",
-                   help="tracker parameters (OVBTConfig fields)")
+    add_algorithm_config_option(p, "OVBTConfig", "; --min-score and --birth-min-score win over "
+                                "the file")
     p.add_argument("--min-score", type=float, metavar="S",
                    help="drop detections with a lower confidence (overrides --config)")
     p.add_argument("--birth-min-score", type=float, metavar="S",
@@ -114,24 +111,15 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
     add_common(p, run)
 
 
-def _report(args: argparse.Namespace, res, video, n_frames: int) -> None:
+def _report(args: argparse.Namespace, res: mot.MOTRun, video: VideoInfo) -> None:
     """``--report DIR``: the tracks over the video's frames, scored when the sequence folder
     has ``gt/gt.txt`` (MOTChallenge layout: SEQ/det/det.txt, SEQ/gt/gt.txt)."""
-    from avtrack.io.video import iter_frames
     from avtrack.viz.recording import write_recording_report
 
-    gt, scores = None, {}
-    if args.detections is not None:
-        gt_path = args.detections.resolve().parent.parent / "gt" / "gt.txt"
-        if gt_path.is_file():
-            from avtrack.metrics.mot import evaluate_mot
-
-            gt = read_mot(gt_path, kind="gt")
-            s = evaluate_mot(gt, res, n_frames=n_frames)
-            scores = {"MOTA": s.MOTA, "IDF1": s.IDF1, "HOTA": s.HOTA, "IDSW": float(s.IDSW)}
-            gt = gt if gt.n_frames <= n_frames else None
+    n_frames = res.n_frames
+    gt, scores = mot.score_against_sequence(res.tracks, args.detections, n_frames)
     with progress.activity(f"drawing the tracks over {n_frames} frames", args.quiet):
-        write_recording_report(args.report, f"avtrack: {video.path.name}", res,
+        write_recording_report(args.report, f"avtrack: {video.path.name}", res.tracks,
                                iter_frames(video.path, video), video.image_size, video.fps,
                                n_frames, gt=gt, scores=scores)
 
@@ -143,137 +131,37 @@ def parse_image_size(text: str) -> tuple[int, int]:
     return int(m[1]), int(m[2])
 
 
-def load_appearance(path: Path, n_rows: int) -> np.ndarray:
-    if not path.is_file():
-        raise InputError("appearance file not found", path)
-    try:
-        app = np.load(path, allow_pickle=False)
-    except (ValueError, OSError, EOFError) as exc:  # EOFError: an empty file
-        raise InputError(f"not a .npy array: {exc}", path) from None
-    if app.ndim != 2 or app.shape[0] != n_rows:
-        raise InputError(f"expected shape ({n_rows}, F) (one row per detection), got "
-                         f"{app.shape}", path)
-    if not np.all(np.isfinite(app)):
-        raise InputError("contains NaN or infinite values", path)
-    return app.astype(float)
-
-
 def detect_in_video(video_path: Path, spec: str, quiet: bool):
-    """Detections of a detector (``--detector``) on every frame of a video."""
-    from avtrack.io.video import iter_frames, probe_video
-    from avtrack.visual.detect import detect_video, load_detector
-
-    info = probe_video(video_path)
-    detector = load_detector(spec)
-    with progress.activity(f"detecting people in {info.n_frames} frames ({spec})", quiet):
-        try:
-            return detect_video(detector, iter_frames(info.path, info), info.n_frames)
-        except InputError:
-            raise
-        except Exception as exc:  # a plug-in's own failure, named as such
-            raise InputError(f"--detector {spec} failed: {type(exc).__name__}: {exc}",
-                             video_path) from None
-
-
-def check_against_video(dets, video, det_path: Path) -> None:
-    """Detections that cannot belong to the video: frames past its last one, boxes entirely
-    outside its image."""
-    if len(dets) == 0:
-        return
-    last = int(dets.frames.max())
-    if last > video.n_frames:
-        raise InputError(f"detections reach frame {last}, the video {video.path} has "
-                         f"{video.n_frames} frames", det_path)
-    w, h = video.image_size
-    b = dets.boxes
-    outside = (b[:, 0] >= w) | (b[:, 1] >= h) | (b[:, 0] + b[:, 2] <= 0) | (b[:, 1] + b[:, 3] <= 0)
-    if outside.any():
-        k = int(np.flatnonzero(outside)[0])
-        raise InputError(f"detection of frame {int(dets.frames[k])} lies entirely outside the "
-                         f"video's {w}x{h} image (box {b[k].round(1).tolist()})", det_path)
+    """:func:`avtrack.pipelines.mot.detect_in_video` with an elapsed-time bar."""
+    return mot.detect_in_video(video_path, spec, partial(progress.activity, quiet=quiet))
 
 
 def run(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
-    base = replace(OVBTConfig(), **VIDEO_DEFAULTS) if args.video is not None else OVBTConfig
-    config = load_config(args.config, base, overrides={"min_score": args.min_score,
-                                                       "birth_min_score": args.birth_min_score})
+    config = load_config(args.config, mot.default_config(args.video is not None),
+                         overrides={"min_score": args.min_score,
+                                    "birth_min_score": args.birth_min_score})
     if args.fps is not None and not (np.isfinite(args.fps) and 0 < args.fps <= 1000):
         raise InputError(f"--fps must be a frame rate in (0, 1000], got {args.fps}")
-    fps = args.fps
-    fps_source = "--fps"
     if args.detections is None and args.video is None:
         raise InputError("give DET.txt, or --video (with --detector) to detect in its frames")
     if args.report is not None and args.video is None:
         raise InputError("--report draws the tracks over the video's frames: give --video")
-    if args.detections is not None and args.detector is not None:
-        raise InputError("--detector detects in the frames: give it without DET.txt")
-    if args.detections is None:
-        dets = detect_in_video(args.video, args.detector or DEFAULT_PERSON_DETECTOR,
-                               args.quiet)
-    else:
-        dets = read_mot(args.detections, kind="det")
-    appearance = None if args.appearance is None else load_appearance(args.appearance,
-                                                                      len(dets))
-    n_frames = None
-    video = None
-    if args.video is not None:
-        from avtrack.io.video import probe_video
-
-        video = probe_video(args.video)
-        check_against_video(dets, video, args.detections or args.video)
-        if not fps and video.fps:
-            fps, fps_source = video.fps, "the video's header"
-        if config.appearance != "bhattacharyya":
-            raise InputError("--video gives colour histograms: the config's appearance must be "
-                             f"'bhattacharyya', got {config.appearance!r}", args.config)
-    if video is not None:
-        image_size = video.image_size
-        n_frames = video.n_frames
-        if args.image_size and parse_image_size(args.image_size) != image_size:
-            raise InputError(f"--image-size {args.image_size} differs from the video's "
-                             f"{image_size[0]}x{image_size[1]}", args.video)
-    else:
-        seqinfo = find_seqinfo(args.detections) if args.detections is not None else None
-        info = read_seqinfo(seqinfo) if seqinfo else {}
-        if args.image_size:
-            image_size = parse_image_size(args.image_size)
-        elif "width" in info and "height" in info:
-            image_size = (int(info["width"]), int(info["height"]))
-        else:
-            image_size = image_size_from_detections(dets)
-        if not args.image_size:
-            length = info.get("length")  # (an int: read_seqinfo parses it)
-            n_frames = None if length is None else int(length)
-        if not fps and info.get("frame_rate"):
-            fps, fps_source = info["frame_rate"], f"{seqinfo}"
+    image_size = parse_image_size(args.image_size) if args.image_size else None
+    res = mot.track_mot_sequence(
+        config, args.detections, video=args.video, detector=args.detector,
+        appearance=args.appearance, image_size=image_size, fps=args.fps,
+        config_path=args.config, stage=partial(progress.activity, quiet=args.quiet))
     if not args.quiet:
-        print(f"frame rate: {fps:g} fps (from {fps_source}; --fps sets it)" if fps else
-              "frame rate: not known, 25 fps assumed (--fps sets it)")
-    if len(dets) == 0 and not args.quiet:
+        print(f"frame rate: {res.fps:g} fps (from {res.fps_source or '--fps'}; --fps sets it)"
+              if res.fps else "frame rate: not known, 25 fps assumed (--fps sets it)")
+    if len(res.detections) == 0 and not args.quiet:
         print(f"avtrack: warning: {args.detections or 'the detector'} found no detections; "
               f"writing empty results", file=sys.stderr)
-    t0 = time.perf_counter()
-    n = max(dets.n_frames, n_frames or 0)
-    if video is not None:
-        from avtrack.io.video import iter_frames
-        from avtrack.visual.histograms import detection_histograms
-
-        with progress.activity(f"colour histograms of {len(dets)} boxes in {n} frames",
-                               args.quiet):
-            appearance = detection_histograms(iter_frames(video.path, video), dets, n,
-                                              descriptor="person")
-    try:
-        with progress.activity(f"tracking {n} frames", args.quiet):
-            res = track_mot(dets, appearance, config, image_size, n_frames, fps)
-    except ValueError as exc:
-        raise InputError(str(exc), args.detections or args.video) from None
-    elapsed = time.perf_counter() - t0
-    write_mot(args.output, res)
-    if args.report is not None and video is not None:
-        _report(args, res, video, n)
+    write_mot(args.output, res.tracks)
+    if args.report is not None and res.video is not None:
+        _report(args, res, res.video)
     if not args.quiet:
-        print(f"tracked {n} frames, {len(np.unique(res.ids))} tracks, {len(res)} boxes "
-              f"-> {args.output} ({n / max(elapsed, 1e-9):.0f} frames/s)")
+        print(f"tracked {res.n_frames} frames, {len(np.unique(res.tracks.ids))} tracks, "
+              f"{len(res.tracks)} boxes -> {args.output} "
+              f"({res.n_frames / max(res.elapsed_s, 1e-9):.0f} frames/s)")
     return 0

@@ -4,35 +4,25 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common, add_output_option
+from avtrack.cli.base import (
+    add_algorithm_config_option,
+    add_command,
+    add_common,
+    add_output_option,
+)
 from avtrack.config import load_config
 from avtrack.errors import InputError
-from avtrack.io.av163 import load_av163
 from avtrack.phd import PHD_FILTERS, PHDConfig
 from avtrack.phd.base import write_tracks_csv
-from avtrack.phd.likelihood import (
-    VISUAL_SOURCES,
-    add_clutter,
-    av163_frames,
-    av163_truth,
-    av163_visual,
-    video_measurements,
-)
-from avtrack.phd.scoring import (
-    OSPA_CUTOFF,
-    OSPA_ORDER,
-    OSPA_T_CUTOFF,
-    OSPA_T_LABEL_PENALTY,
-    ospa_of,
-    ospa_t_of,
-)
+from avtrack.phd.likelihood import VISUAL_SOURCES
+from avtrack.phd.scoring import OSPA_CUTOFF, OSPA_ORDER, OSPA_T_CUTOFF, OSPA_T_LABEL_PENALTY
+from avtrack.pipelines.phd import track_av163
 
 EXAMPLES = """\
 examples:
@@ -115,7 +105,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         "and as many DOA outliers (uniform azimuth), this many per frame each (Poisson); the "
         "filter's clutter_visual and clutter_audio grow by the same rate (default 0)",
     )
-    p.add_argument("--config", type=Path, metavar="FILE.yaml", help="PHDConfig fields")
+    add_algorithm_config_option(p, "PHDConfig")
     add_output_option(p, "TRACKS.csv", "output CSV (written atomically)")
     p.add_argument(
         "--plot",
@@ -134,55 +124,31 @@ def run(args: argparse.Namespace) -> int:
         raise InputError(f"--seq must be a positive integer, got {args.seq}")
     if not (np.isfinite(args.clutter_rate) and 0 <= args.clutter_rate <= 100):
         raise InputError(f"--clutter-rate must be a number in [0, 100], got {args.clutter_rate}")
-    seq = load_av163(args.folder, args.seq, args.cam)
-    rng = np.random.default_rng([args.seed, args.seq, args.cam])
-    if args.video is not None:
-        if args.visual != "auto":
-            raise InputError(f"--visual {args.visual} and --video both choose the visual "
-                             f"measurements; give one")
-        from avtrack.av.av163 import av163_detector
+    if args.video is not None and args.visual != "auto":
+        raise InputError(f"--visual {args.visual} and --video both choose the visual "
+                         f"measurements; give one")
 
-        visual = video_measurements(args.video, seq, av163_detector(seq))
-        used = "video foreground heads"
-    else:
-        visual, used = av163_visual(args.folder, seq, args.visual, rng)
-    doa = list(seq.z_doa)
-    if args.clutter_rate > 0:
-        visual, doa = add_clutter(visual, doa, args.clutter_rate, args.clutter_rate,
-                                  np.random.default_rng([args.seed, args.seq, args.cam, 7]),
-                                  config.image_size)
-        config = dataclasses.replace(config, clutter_visual=config.clutter_visual
-                                     + args.clutter_rate, clutter_audio=config.clutter_audio
-                                     + args.clutter_rate)  # fmt: skip
-        used += f" + {args.clutter_rate:g} false alarms/frame"
-    frames = av163_frames(seq, visual, config.sigma_audio, config.gate, doa_deg=doa)
-    tracker = PHD_FILTERS[args.filter](config, seed=args.seed)
-    with progress.counting(tracker, "step", len(frames), args.filter, "frame", args.quiet):
-        result = tracker.run(frames)
-    write_tracks_csv(args.output, result.rows(seq.frames))
-    truth = av163_truth(seq)
-    ospa = ospa_of(result, truth)
-    ospat = ospa_t_of(result, seq)
+    def watch(tracker, n_frames):
+        return progress.counting(tracker, "step", n_frames, args.filter, "frame", args.quiet)
+
+    res = track_av163(args.folder, args.seq, args.cam, args.filter, config, seed=args.seed,
+                      visual=args.visual, video=args.video, clutter_rate=args.clutter_rate,
+                      watch=watch)
+    write_tracks_csv(args.output, res.rows)
+    result, ospa = res.result, res.ospa
     if args.plot:
         from avtrack.viz.plots import plot_phd_tracks
 
-        plot_phd_tracks(
-            args.plot,
-            result,
-            truth,
-            seq.frames,
-            ospa,
-            f"{args.filter.upper()} seq {args.seq} cam {args.cam} ({used})",
-            OSPA_ORDER,
-            OSPA_CUTOFF,
-        )
+        plot_phd_tracks(args.plot, result, res.truth, res.sequence.frames, ospa,
+                        f"{args.filter.upper()} seq {args.seq} cam {args.cam} "
+                        f"({res.visual_source})", OSPA_ORDER, OSPA_CUTOFF)
     if not args.quiet:
         print(
-            f"{args.filter}: seq {args.seq} cam {args.cam}, {seq.n_frames} frames, visual "
-            f"{used}; OSPA {ospa[:, 0].mean():.2f} px (p={OSPA_ORDER}, c={OSPA_CUTOFF:g}), "
-            f"OSPA-T {ospat:.2f} px (c={OSPA_T_CUTOFF:g}, label {OSPA_T_LABEL_PENALTY:g}), "
-            f"ESS {result.mean_ess:.1f}, {result.n_resamplings} resamplings, "
-            f"{result.time_s:.2f} s -> {args.output}"
+            f"{args.filter}: seq {args.seq} cam {args.cam}, {res.sequence.n_frames} frames, "
+            f"visual {res.visual_source}; OSPA {ospa[:, 0].mean():.2f} px (p={OSPA_ORDER}, "
+            f"c={OSPA_CUTOFF:g}), OSPA-T {res.ospa_t:.2f} px (c={OSPA_T_CUTOFF:g}, label "
+            f"{OSPA_T_LABEL_PENALTY:g}), ESS {result.mean_ess:.1f}, {result.n_resamplings} "
+            f"resamplings, {result.time_s:.2f} s -> {args.output}"
         )
     if args.verbose:
         print(

@@ -31,11 +31,13 @@ def check_config_fields(
     positive: tuple[str, ...] = (),
     finite: tuple[str, ...] = (),
     counts: tuple[str, ...] = (),
+    non_negative: tuple[str, ...] = (),
 ) -> None:
     """Validate a tracker config's numeric fields, naming the class and field on failure.
 
-    ``positive``: finite numbers > 0; ``finite``: finite numbers; ``counts``: integers >= 1.
-    Booleans are rejected everywhere (``True`` is not a number of iterations).
+    ``positive``: finite numbers > 0; ``finite``: finite numbers; ``counts``: integers >= 1;
+    ``non_negative``: finite numbers >= 0 (e.g. ``lead_s``). Booleans are rejected everywhere
+    (``True`` is not a number of iterations).
     """
     owner = type(config).__name__
     for name in positive:
@@ -50,13 +52,10 @@ def check_config_fields(
         v = getattr(config, name)
         if isinstance(v, bool) or not (isinstance(v, int) and v >= 1):
             raise ValueError(f"{owner}.{name} must be an integer >= 1, got {v!r}")
-
-
-def check_lead(config: Any) -> None:
-    """Validate a tracker config's ``lead_s`` (a finite number of seconds >= 0)."""
-    v = config.lead_s
-    if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v) and v >= 0):
-        raise ValueError(f"{type(config).__name__}.lead_s must be a number >= 0, got {v!r}")
+    for name in non_negative:
+        v = getattr(config, name)
+        if isinstance(v, bool) or not (isinstance(v, int | float) and np.isfinite(v) and v >= 0):
+            raise ValueError(f"{owner}.{name} must be a finite number >= 0, got {v!r}")
 
 
 TRACKERS: Registry[type[DOATracker]] = Registry("DOA tracker")

@@ -62,7 +62,6 @@ from avtrack.doa.base import (
     SpeakerActivity,
     TrackFrame,
     check_config_fields,
-    check_lead,
     register_tracker,
 )
 from avtrack.doa.model import (
@@ -125,8 +124,8 @@ class GaussConfig:
                 "merge_deg",
             ),
             counts=("n_iter", "birth_frames", "activity_frames"),
+            non_negative=("lead_s",),
         )
-        check_lead(self)
         if not (isinstance(self.velocity_decay, int | float) and 0 < self.velocity_decay <= 1):
             raise ValueError(
                 f"GaussConfig.velocity_decay must be in (0, 1], got {self.velocity_decay!r}"

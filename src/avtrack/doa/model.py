@@ -35,7 +35,7 @@ from functools import cached_property
 
 import numpy as np
 
-from avtrack.vem.model import ObservationModel
+from avtrack.vem.model import ObservationModel, cached_log_clutter
 
 DIRECTION_DIM = 2
 STATE_DIM = 3
@@ -189,12 +189,7 @@ class WeightedDirectionModel(ObservationModel):
 
     def _log_clutter(self, m: int) -> np.ndarray:
         """``(m,)`` read-only array of the clutter log density, shared between calls."""
-        out = self._clutter_cache.get(m)
-        if out is None:
-            out = np.full(m, self.log_clutter_density)
-            out.flags.writeable = False
-            self._clutter_cache[m] = out
-        return out
+        return cached_log_clutter(self._clutter_cache, m, self.log_clutter_density)
 
     def information(
         self, obs: WeightedDirections, resp: np.ndarray, dim: int

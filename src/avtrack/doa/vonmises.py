@@ -72,7 +72,6 @@ from avtrack.doa.base import (
     SpeakerActivity,
     TrackFrame,
     check_config_fields,
-    check_lead,
     register_tracker,
 )
 from avtrack.vem.updates import e_z_step, exclusive_projection, m_step_priors
@@ -233,17 +232,8 @@ class VonMisesConfig:
                 "birth_floor",
             ),
             counts=("n_iter", "birth_frames", "birth_candidates", "activity_frames"),
+            non_negative=("velocity_std", "lead_s"),
         )
-        if isinstance(self.velocity_std, bool) or not (
-            isinstance(self.velocity_std, int | float)
-            and np.isfinite(self.velocity_std)
-            and self.velocity_std >= 0
-        ):
-            raise ValueError(
-                f"VonMisesConfig.velocity_std must be a finite number >= 0, "
-                f"got {self.velocity_std!r}"
-            )
-        check_lead(self)
         d = self.silent_velocity_decay
         if isinstance(d, bool) or not (isinstance(d, int | float) and 0 <= d <= 1):
             raise ValueError(f"VonMisesConfig.silent_velocity_decay must be in [0, 1], got {d!r}")

@@ -67,6 +67,7 @@ import numpy as np
 import scipy.io
 
 from avtrack.errors import InputError
+from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
 
 FRAME_RATE = 25
@@ -181,6 +182,38 @@ class AV163Camera:
             ok = np.all(np.isfinite(pix), axis=1)
             pix[ok] = self.distort(pix[ok])
         return pix
+
+    def decompose(self, align_mat: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The camera in the ``MouthGT3D`` room frame: ``Pmat @ inv(align_mat) = K [R | -R C]``.
+
+        Parameters
+        ----------
+        align_mat : ndarray (4, 4)
+            The sequence's ``align_mat``.
+
+        Returns
+        -------
+        K : ndarray (3, 3)
+            Intrinsics, scaled to ``K[2, 2] = 1``.
+        R : ndarray (3, 3)
+            Rotation room -> camera (rows: the camera's x right, y down and z forward axes in
+            room coordinates), a proper rotation (``det R = +1``).
+        centre : ndarray (3,)
+            Optical centre ``C``, metres, room frame.
+        """
+        import cv2
+
+        align = np.asarray(align_mat, dtype=float)
+        if align.shape != (4, 4):
+            raise ValueError(
+                f"AV163Camera.decompose: align_mat must have shape (4, 4), got {align.shape}"
+            )
+        proj = self.pmat @ np.linalg.inv(align)  # room -> undistorted pixels
+        K, R, c_h = cv2.decomposeProjectionMatrix(proj)[:3]
+        K = K / K[2, 2]
+        if np.linalg.det(R) < 0:  # a mirrored decomposition: flip it back
+            R, K = -R, -K
+        return K, R, c_h[:3, 0] / c_h[3, 0]
 
 
 @dataclass(frozen=True)
@@ -314,6 +347,17 @@ class AV163Sequence:
         ok = (idx >= 0) & (idx < self.n_frames)
         ok[ok] &= np.abs(self.time_s[idx[ok]] - t[ok]) < 0.5 / FRAME_RATE
         return np.where(ok, idx, -1)
+
+    def mouth_azimuths(self, centre: np.ndarray) -> np.ndarray:
+        """Azimuth (degrees, counter-clockwise from the room's x axis) of each person's mouth
+        seen from ``centre`` (3,) metres, e.g. :data:`AV163_ARRAY_CENTRE`: ``(P, T)``, NaN on
+        frames without a mouth sample."""
+        out = np.full((self.n_persons, self.n_frames), np.nan)
+        for p in range(self.n_persons):
+            idx = self.frame_index(self.mouth[p].time_s)
+            d = self.mouth[p].xyz[idx >= 0] - np.asarray(centre, dtype=float).reshape(3)
+            out[p, idx[idx >= 0]] = np.degrees(np.arctan2(d[:, 1], d[:, 0]))
+        return out
 
     def project_mouth(self, person: int, distort: bool = True) -> np.ndarray:
         """3-D mouth ground truth of ``person`` (0-based) projected into this camera.
@@ -696,6 +740,52 @@ def probe_av163_video(video: str | Path, seq: AV163Sequence):
                          f"{seq.cam} has {seq.n_frames} (is it the video of another sequence "
                          f"or camera?)", video)
     return info
+
+
+def av163_pinhole(seq: AV163Sequence, array_centre=AV163_ARRAY_CENTRE) -> PinholeCamera:
+    """The sequence's camera as a :class:`~avtrack.io.camera.PinholeCamera` in the array's
+    frame: the pinhole part of the calibration, without its lens distortion and roll.
+
+    ``Pmat @ inv(align_mat)`` is decomposed (:meth:`AV163Camera.decompose`); the pinhole keeps
+    its focal lengths, principal point, optical centre (less ``array_centre``: the array frame
+    is the ``MouthGT3D`` room frame moved to the array's centre, the frame of ``Z_doa``) and
+    optical axis (yaw, pitch). What a roll-free, distortion-free camera cannot hold is
+    dropped: the lens distortion ``kc`` and the rotation about the optical axis (3.6 degrees
+    for camera 1, under 1 degree for cameras 2 and 3).
+    :class:`avtrack.av.av163.AV163View` adds both back.
+
+    Parameters
+    ----------
+    seq : AV163Sequence
+    array_centre : (float, float, float)
+        Array centre in the ``MouthGT3D`` frame (metres).
+
+    Returns
+    -------
+    PinholeCamera
+        Image size :data:`IMAGE_SIZE`.
+    """
+    centre = np.asarray(array_centre, dtype=float)
+    if centre.shape != (3,) or not np.all(np.isfinite(centre)):
+        raise ValueError(f"av163_pinhole: array_centre must be 3 finite numbers, got "
+                         f"{array_centre!r}")
+    K, R, optical_centre = seq.camera.decompose(seq.align_mat)
+    forward = R[2]  # the optical axis in room coordinates
+    yaw = float(np.degrees(np.arctan2(forward[1], forward[0])))
+    pitch = float(np.degrees(np.arcsin(np.clip(forward[2], -1.0, 1.0))))
+    width, height = IMAGE_SIZE
+    return PinholeCamera(fx=float(K[0, 0]), fy=float(K[1, 1]), cx=float(K[0, 2]),
+                         cy=float(K[1, 2]), width=width, height=height,
+                         position=optical_centre - centre, yaw_deg=yaw, pitch_deg=pitch)
+
+
+def av163_roll(seq: AV163Sequence, pinhole: PinholeCamera) -> np.ndarray:
+    """The rotation about the optical axis that :func:`av163_pinhole` drops: ``(2, 2)``, with
+    the calibration's rotation ``R = R_roll R_pinhole`` (``R_roll`` acting on normalised image
+    coordinates). Its angle is ``degrees(atan2(r[1, 0], r[0, 0]))``."""
+    R = seq.camera.decompose(seq.align_mat)[1]
+    roll = R @ pinhole.R.T  # R_roll = R R_pinhole^T
+    return roll[:2, :2]
 
 
 def av163_templates(seq: AV163Sequence) -> np.ndarray:

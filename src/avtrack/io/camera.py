@@ -40,17 +40,17 @@ from avtrack.errors import InputError
 _JSON_FIELDS = ("fx", "fy", "cx", "cy", "width", "height", "position", "yaw_deg", "pitch_deg")
 
 
-def _positive(name: str, value: float) -> float:
+def _positive(name: str, value: float, owner: str = "PinholeCamera") -> float:
     v = float(value)
     if not math.isfinite(v) or v <= 0:
-        raise ValueError(f"PinholeCamera: {name} must be a finite number > 0, got {value!r}")
+        raise ValueError(f"{owner}: {name} must be a finite number > 0, got {value!r}")
     return v
 
 
-def _finite(name: str, value: float) -> float:
+def _finite(name: str, value: float, owner: str = "PinholeCamera") -> float:
     v = float(value)
     if not math.isfinite(v):
-        raise ValueError(f"PinholeCamera: {name} must be finite, got {value!r}")
+        raise ValueError(f"{owner}: {name} must be finite, got {value!r}")
     return v
 
 
@@ -64,8 +64,10 @@ def _as_points(points: np.ndarray, name: str = "points") -> np.ndarray:
 
 
 @dataclass(frozen=True, eq=False)
-class PinholeCamera:
-    """Ideal pinhole camera (no distortion, no roll) in the room frame.
+class Intrinsics:
+    """Pinhole intrinsics and image size, checked: what a camera in the room
+    (:class:`PinholeCamera`) and a rectified stereo pair
+    (:class:`~avtrack.robot.stereo.StereoRig`) share. Errors name the subclass.
 
     Attributes
     ----------
@@ -75,12 +77,6 @@ class PinholeCamera:
         Principal point in pixels.
     width, height : int
         Image size in pixels (> 0).
-    position : ndarray (3,)
-        Optical centre ``C`` in the room frame, metres.
-    yaw_deg : float
-        Azimuth of the optical axis about room z, counter-clockwise from +x, degrees.
-    pitch_deg : float
-        Elevation of the optical axis in [-90, 90] degrees, positive looking up.
     """
 
     fx: float
@@ -89,20 +85,42 @@ class PinholeCamera:
     cy: float
     width: int
     height: int
+
+    def __post_init__(self) -> None:
+        owner = type(self).__name__
+        for name in ("fx", "fy"):
+            object.__setattr__(self, name, _positive(name, getattr(self, name), owner))
+        for name in ("cx", "cy"):
+            object.__setattr__(self, name, _finite(name, getattr(self, name), owner))
+        for name in ("width", "height"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not float(v).is_integer() or v <= 0:
+                raise ValueError(f"{owner}: {name} must be an integer > 0, got {v!r}")
+            object.__setattr__(self, name, int(v))
+
+
+@dataclass(frozen=True, eq=False)
+class PinholeCamera(Intrinsics):
+    """Ideal pinhole camera (no distortion, no roll) in the room frame.
+
+    Attributes
+    ----------
+    fx, fy, cx, cy, width, height
+        The :class:`Intrinsics`.
+    position : ndarray (3,)
+        Optical centre ``C`` in the room frame, metres.
+    yaw_deg : float
+        Azimuth of the optical axis about room z, counter-clockwise from +x, degrees.
+    pitch_deg : float
+        Elevation of the optical axis in [-90, 90] degrees, positive looking up.
+    """
+
     position: np.ndarray
     yaw_deg: float = 0.0
     pitch_deg: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "fx", _positive("fx", self.fx))
-        object.__setattr__(self, "fy", _positive("fy", self.fy))
-        object.__setattr__(self, "cx", _finite("cx", self.cx))
-        object.__setattr__(self, "cy", _finite("cy", self.cy))
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not float(v).is_integer() or v <= 0:
-                raise ValueError(f"PinholeCamera: {name} must be an integer > 0, got {v!r}")
-            object.__setattr__(self, name, int(v))
+        super().__post_init__()
         pos = np.array(self.position, dtype=float)
         if pos.shape != (3,) or not np.all(np.isfinite(pos)):
             raise ValueError(

@@ -64,6 +64,36 @@ def _count(owner: str, name: str, value: int) -> None:
         raise ValueError(f"{owner}: {name} must be an integer >= 0, got {value!r}")
 
 
+def density_coefficients(means: np.ndarray, variance: float) -> np.ndarray:
+    """The terms of ``log N_c(ĉ; c, sigma^2)`` (eq. 5.12) that do not depend on the feature,
+    computed once per localizer: ``(..., 3, D)`` with rows ``2 Re(c) / sigma^2``,
+    ``2 Im(c) / sigma^2`` and ``-|c|^2 / sigma^2``, so that ``log N = [Re ĉ, Im ĉ, 1] . row``
+    up to a constant per feature (``-|ĉ|^2 / sigma^2``, which the ratios of eq. 5.17 do not
+    see).
+
+    Parameters
+    ----------
+    means : ndarray (..., D), complex
+    variance : float
+    """
+    m = np.asarray(means)
+    coef = np.stack([2.0 * m.real, 2.0 * m.imag, -(m.real**2 + m.imag**2)], axis=-2)
+    return np.ascontiguousarray(coef / variance)
+
+
+def densities_from_coefficients(features: np.ndarray, coef: np.ndarray) -> np.ndarray:
+    """:func:`cgmm_densities` from :func:`density_coefficients`: features ``(K,)`` complex and
+    their coefficients ``(K, 3, D)``; returns ``(K, D)`` in (0, 1], a 1 in every row."""
+    f = np.asarray(features)
+    lhs = np.empty((f.size, 1, 3))
+    lhs[:, 0, 0] = f.real
+    lhs[:, 0, 1] = f.imag
+    lhs[:, 0, 2] = 1.0
+    log_n = np.matmul(lhs, coef)[:, 0, :]  # (K, D): one small product per feature
+    log_n -= log_n.max(axis=1, keepdims=True)
+    return np.exp(log_n, out=log_n)
+
+
 def cgmm_densities(features: np.ndarray, means: np.ndarray, variance: float) -> np.ndarray:
     """``N_c(ĉ_k; c_{k,d}, sigma^2)`` (eq. 5.12) up to a factor per feature ``k``.
 
@@ -81,18 +111,26 @@ def cgmm_densities(features: np.ndarray, means: np.ndarray, variance: float) -> 
     ndarray (K, D), in (0, 1], with a 1 in every row.
     """
     # log N_c(ĉ; c, s2) = -|ĉ - c|^2 / s2 + const = (2 Re(ĉ* c) - |c|^2) / s2 + const_k
-    log_n = (
-        2.0 * (features.real[:, None] * means.real + features.imag[:, None] * means.imag)
-        - (means.real**2 + means.imag**2)
-    ) / variance
-    log_n -= log_n.max(axis=1, keepdims=True)
-    return np.exp(log_n)
+    return densities_from_coefficients(features, density_coefficients(means, variance))
 
 
 def ratios_from_densities(dens: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``N_kd / sum_d' w_d' N_kd'`` (eq. 5.17) from :func:`cgmm_densities` ``(K, D)``."""
     denom = dens @ weights  # sum_d' w_d' N_kd'
     return dens / np.maximum(denom, _TINY)[:, None]
+
+
+def mean_ratios(dens: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``(1/K) sum_k N_kd / sum_d' w_d' N_kd'`` ``(D,)``: the mean over the features of
+    :func:`ratios_from_densities`, which is all eqs. 5.17-5.19 use (two matrix-vector
+    products instead of a ``(K, D)`` division)."""
+    inv = 1.0 / np.maximum(dens @ weights, _TINY)  # 1 / sum_d' w_d' N_kd'   (K,)
+    return (inv @ dens) / dens.shape[0]
+
+
+def _mean_ratio(ratios: np.ndarray) -> np.ndarray:
+    """The mean ratio ``(D,)`` from ratios ``(K, D)``, or the mean itself."""
+    return ratios if ratios.ndim == 1 else ratios.mean(axis=0)
 
 
 def cgmm_likelihood_ratios(
@@ -127,8 +165,9 @@ def eg_update(weights: np.ndarray, ratios: np.ndarray, step: float, entropy: flo
     ----------
     weights : ndarray (D,)
         ``w_{t-1}``, positive, summing to one.
-    ratios : ndarray (K, D)
-        :func:`cgmm_likelihood_ratios` of the frame's ``K >= 1`` features.
+    ratios : ndarray (K, D) or (D,)
+        :func:`cgmm_likelihood_ratios` of the frame's ``K >= 1`` features, or their mean over
+        the features (:func:`mean_ratios`).
     step, entropy : float
         ``eta`` and ``gamma``.
 
@@ -138,7 +177,7 @@ def eg_update(weights: np.ndarray, ratios: np.ndarray, step: float, entropy: flo
         ``w_t``, positive and summing to one (computed in the log domain).
     """
     log_w = np.log(np.maximum(weights, _TINY))
-    grad_l = -ratios.mean(axis=0)  # dL_t/dw_d                       (eq. 5.17)
+    grad_l = -_mean_ratio(ratios)  # dL_t/dw_d                       (eq. 5.17)
     grad_h = -(1.0 + log_w)  # dH/dw_d                               (eq. 5.17)
     log_w = log_w - step * (grad_l + entropy * grad_h)  # log(r w)  (eq. 5.18)
     log_w -= log_w.max()
@@ -153,7 +192,7 @@ def evidence_change(weights: np.ndarray, ratios: np.ndarray) -> float:
     one). Near 0 when the features agree with the weights, near 1 when they come from
     directions the weights do not hold.
     """
-    post = weights * ratios.mean(axis=0)
+    post = weights * _mean_ratio(ratios)
     return float(0.5 * np.abs(post - weights).sum())
 
 
@@ -321,7 +360,7 @@ def eg_update_layers(
     ``d`` (``ratios`` are computed with the marginal); the entropy term and the normalisation
     are over all ``U D`` cells."""
     log_v = np.log(np.maximum(layers, _TINY))
-    grad_l = -ratios.mean(axis=0)  # dL_t/dv_{u,d} = dL_t/dw_d              (eq. 5.17)
+    grad_l = -_mean_ratio(ratios)  # dL_t/dv_{u,d} = dL_t/dw_d              (eq. 5.17)
     log_v = log_v - step * (grad_l[None, :] - entropy * (1.0 + log_v))  # (eq. 5.18)
     log_v -= log_v.max()
     v = np.exp(log_v)
@@ -485,6 +524,8 @@ class CGMMLocalizer(Localizer):
         h = transfer_functions(self.array, self.grid, freqs, self.fs)
         # (I-1, F, D): boolean indexing with a feature mask (I-1, F) gives (K, D)
         self._means = np.ascontiguousarray(dprtf_means(h, self.config.dprtf.phase_only))
+        #: (I-1, F, 3, D) :func:`density_coefficients` of the means, once
+        self._coef = density_coefficients(self._means, self.config.variance)
         self._estimator = DPRTFEstimator(
             self.n_channels, self.stft_config.n_freqs, freqs, self.config.dprtf
         )
@@ -504,7 +545,7 @@ class CGMMLocalizer(Localizer):
             k = int(np.count_nonzero(valid))
             dens = None
             if k and k >= cfg.min_features:
-                dens = cgmm_densities(values[valid], self._means[valid], cfg.variance)
+                dens = densities_from_coefficients(values[valid], self._coef[valid])
             w, out[t] = self._frame(w, dens)
             n_obs[t] = k
         self.weights = w
@@ -519,7 +560,7 @@ class CGMMLocalizer(Localizer):
         if dens is None:
             w = decay_to_uniform(weights, cfg.silence_rate)
         else:
-            w = self._update(weights, ratios_from_densities(dens, weights))
+            w = self._update(weights, mean_ratios(dens, weights))
         w = spatial_smoothing(w, self.grid, cfg.smoothing)
         return w, self._emit(w, dens)
 
@@ -530,7 +571,8 @@ class CGMMLocalizer(Localizer):
 
     @abstractmethod
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
-        """New weights ``(D,)`` from ``w_{t-1}`` and the frame's likelihood ratios ``(K, D)``."""
+        """New weights ``(D,)`` from ``w_{t-1}`` and the frame's mean likelihood ratio ``(D,)``
+        (:func:`mean_ratios`)."""
 
 
 @register_localizer("dprtf-eg")
@@ -595,7 +637,7 @@ class DPRTFEG(CGMMLocalizer):
         if dens is None:
             v = decay_to_uniform(v, cfg.silence_rate)
         else:
-            v = eg_update(v, ratios_from_densities(dens, v), cfg.position_step, cfg.entropy)
+            v = eg_update(v, mean_ratios(dens, v), cfg.position_step, cfg.entropy)
             v = decay_to_uniform(v, cfg.position_share)
         return spatial_smoothing(v, self.grid, cfg.position_smoothing)
 
@@ -610,7 +652,7 @@ class DPRTFEG(CGMMLocalizer):
         if dens is None:
             layers = (1.0 - cfg.silence_rate) * layers + cfg.silence_rate / n_cells
         else:
-            ratios = ratios_from_densities(dens, layers.sum(axis=0))
+            ratios = mean_ratios(dens, layers.sum(axis=0))
             layers = eg_update_layers(layers, ratios, cfg.position_step, cfg.entropy)
             layers = (1.0 - cfg.position_share) * layers + cfg.position_share / n_cells
         # each layer: drift at its velocity, then the random walk (spatial_smoothing of each

@@ -41,13 +41,15 @@ def rem_update(weights: np.ndarray, ratios: np.ndarray, rate: float) -> np.ndarr
     ----------
     weights : ndarray (D,)
         ``w_{t-1}``, non-negative, summing to one.
-    ratios : ndarray (K, D)
+    ratios : ndarray (K, D) or (D,)
         :func:`~avtrack.localize.cgmm_eg.cgmm_likelihood_ratios` of the frame's features, so
-        that ``weights * ratios[k]`` is feature ``k``'s posterior over directions.
+        that ``weights * ratios[k]`` is feature ``k``'s posterior over directions, or their
+        mean over the features (:func:`~avtrack.localize.cgmm_eg.mean_ratios`).
     rate : float
         ``alpha`` in [0, 1].
     """
-    posterior = (ratios * weights).mean(axis=0)  # E-step, averaged over the features
+    r = ratios if ratios.ndim == 1 else ratios.mean(axis=0)
+    posterior = weights * r  # E-step, averaged over the features
     return (1.0 - rate) * weights + rate * posterior
 
 

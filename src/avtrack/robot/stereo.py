@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from avtrack.io.camera import PinholeCamera
+from avtrack.io.camera import Intrinsics, PinholeCamera
 from avtrack.robot.base import OBS_DIM, FaceObservations
 
 #: Rotation home-camera → room of the canonical :class:`PinholeCamera` (position 0, yaw 0,
@@ -51,42 +51,22 @@ def _points(name: str, x: np.ndarray, width: int) -> np.ndarray:
 
 
 @dataclass(frozen=True)
-class StereoRig:
+class StereoRig(Intrinsics):
     """Rectified stereo pair (left camera = reference), pinhole intrinsics shared.
 
     Attributes
     ----------
-    fx, fy : float
-        Focal lengths, pixels.
-    cx, cy : float
-        Principal point, pixels.
-    width, height : int
-        Image size, pixels.
+    fx, fy, cx, cy, width, height
+        The :class:`~avtrack.io.camera.Intrinsics` of both cameras (pixels).
     baseline : float
         Distance between the optical centres, metres (right camera at ``+baseline`` along x).
     """
 
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    width: int
-    height: int
     baseline: float
 
     def __post_init__(self) -> None:
-        for name in ("fx", "fy", "baseline"):
-            object.__setattr__(self, name, _positive(name, getattr(self, name)))
-        for name in ("cx", "cy"):
-            v = float(getattr(self, name))
-            if not math.isfinite(v):
-                raise ValueError(f"StereoRig: {name} must be finite, got {v!r}")
-            object.__setattr__(self, name, v)
-        for name in ("width", "height"):
-            v = getattr(self, name)
-            if isinstance(v, bool) or not float(v).is_integer() or v <= 0:
-                raise ValueError(f"StereoRig: {name} must be an integer > 0, got {v!r}")
-            object.__setattr__(self, name, int(v))
+        super().__post_init__()
+        object.__setattr__(self, "baseline", _positive("baseline", self.baseline))
 
     @classmethod
     def nao(

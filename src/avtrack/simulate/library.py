@@ -25,6 +25,9 @@ array-talkers  1-3 talkers standing still around a small free-field array (the R
                diffuse noise: the noise floor, coherence and direct-to-reverberant ratio
                measured on the real ReSpeaker recordings of the shared data (BENCHMARKS.md).
 =============  ==============================================================================
+
+:func:`demo_scenario` is the meeting of ``avtrack demo``: the ``meeting`` scene with a given
+number of people, heard by a NAO-like 4-microphone array in the free field.
 """
 
 from __future__ import annotations
@@ -33,6 +36,8 @@ from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+from avtrack.io.scenario import validate_scenario
 
 #: Length in seconds of the shared recorded tracks (8 ms frames).
 TRACK_SECONDS = {"locata": 7875 * 0.008, "kinovis": 4908 * 0.008}
@@ -286,3 +291,21 @@ def named_scenario(name: str, seed: int = 0, duration: float = 20.0) -> dict:
     if duration <= 0:
         raise ValueError(f"duration: expected seconds > 0, got {duration}")
     return SCENARIOS[name](int(seed), float(duration))
+
+
+def demo_scenario(seed: int, duration: float, people: int = 3) -> dict:
+    """The meeting of ``avtrack demo``: ``people`` people in front of a NAO-like 4-microphone
+    array (free field) and a camera; a validated scenario.
+
+    The ``meeting`` scene draws 2-4 people; the first of the seeds ``seed, seed + 1000, ...``
+    that gives ``people`` people is used, so the scene depends on ``seed`` (and ``people``)
+    only.
+    """
+    for k in range(100):
+        raw = named_scenario("meeting", seed + 1000 * k, duration)
+        if len(raw["people"]) == people:
+            break
+    raw["seed"] = seed
+    raw["name"] = "demo-meeting"
+    raw["array"] = {**raw["array"], "name": "nao4", "hrir": False}
+    return validate_scenario(raw)

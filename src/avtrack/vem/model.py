@@ -23,6 +23,20 @@ import numpy as np
 from avtrack.vem.updates import e_z_step, exclusive_projection, ones
 
 
+def cached_log_clutter(
+    cache: dict[int, np.ndarray], m: int, log_density: float,
+) -> np.ndarray:
+    """``(m,)`` read-only array of the constant clutter log density ``log_density``, made once
+    per ``m`` and kept in ``cache`` (a model's own dict), so that the calls of a frame share it.
+    """
+    out = cache.get(m)
+    if out is None:
+        out = np.full(m, log_density)
+        out.flags.writeable = False
+        cache[m] = out
+    return out
+
+
 class ObservationModel(ABC):
     """Base class of observation models. Shapes: N targets, M observations, d state dim."""
 

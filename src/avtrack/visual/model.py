@@ -20,7 +20,7 @@ from itertools import pairwise
 
 import numpy as np
 
-from avtrack.vem.model import DiagonalObservationModel
+from avtrack.vem.model import DiagonalObservationModel, cached_log_clutter
 from avtrack.vem.updates import e_z_normalise, exclusive_projection
 from avtrack.visual.appearance import AppearanceLikelihood, init_appearance_model
 
@@ -280,12 +280,7 @@ class BoxObservationModel(DiagonalObservationModel):
 
     def _log_clutter(self, m: int) -> np.ndarray:
         r"""``(m,)`` read-only array of :math:`\log u(o)`, shared between calls."""
-        out = self._log_clutter_cache.get(m)
-        if out is None:
-            out = np.full(m, self.log_clutter_density)
-            out.flags.writeable = False
-            self._log_clutter_cache[m] = out
-        return out
+        return cached_log_clutter(self._log_clutter_cache, m, self.log_clutter_density)
 
     def _with_appearance(self, obs: BoxObservations, log_tau: np.ndarray) -> np.ndarray:
         """``log_tau (M, N)`` times the appearance ratio b(h_m; h_n) / u(h_m), eq. 3.21."""
