@@ -73,21 +73,21 @@ def _same_run(a: AVRun, b: AVRun) -> None:
     assert a.speech == b.speech
 
 
-def _recording_step(steps: list[str]):
-    """A ``step`` that records what it is told."""
+def _recording_stage(steps: list[str]):
+    """A ``stage`` that records what it is told."""
     import contextlib
 
-    def step(what: str):
+    def stage(what: str):
         steps.append(what)
         return contextlib.nullcontext()
 
-    return step
+    return stage
 
 
 def test_scene_direction_is_the_librarys_persons_tracker(scene_dir):
     steps: list[str] = []
     run = track_scene_direction(scene_dir, PersonConfig(), voices=True,
-                                step=_recording_step(steps))
+                                stage=_recording_stage(steps))
     res = track_scene_persons(load_scene(scene_dir), config=PersonConfig())
     _same_run(run, AVRun(res.tracks, res.speaking, res.persons, res.speech, res.n_frames,
                          res.fps, 0.0, None, FS))
@@ -133,9 +133,8 @@ def test_block_wise_localization_is_the_whole_signals(own):
     peaks = audio_peaks(heat.weights, heat.time_s, grid, 25.0, n_frames,
                         floor=audio_peak_floor(PERSONS_LOCALIZER))
     steps: list[str] = []
-    step = _recording_step(steps)
     got = localize_for_persons(ArrayRecording(wav, array, quiet=True, block_s=0.3), 25.0,
-                               n_frames, vad=vad_available(), step=step)
+                               n_frames, vad=vad_available(), stage=_recording_stage(steps))
     assert len(got.peaks) == n_frames
     for a, b in zip(got.peaks, peaks, strict=True):
         np.testing.assert_array_equal(a, b)

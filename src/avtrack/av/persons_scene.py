@@ -223,32 +223,8 @@ def track_persons(
     vis_app = _visual_appearance(vis, detections, appearance, n_frames)
     t1 = time.perf_counter()
     tracker = PersonTracker(geometry, config, fps, fov, azimuth_span_deg)
-    no_audio = np.zeros(0)
-    person_ids = np.zeros(len(vis), dtype=np.int64)
-    cols: dict[str, list[np.ndarray]] = {
-        k: [] for k in ("frames", "ids", "az", "el", "px", "view", "speak", "side")
-    }
-    for i, sl in enumerate(vis.frame_slices(n_frames)):
-        out = tracker.step(
-            vis.ids[sl], vis.boxes[sl], None if vis_app is None else vis_app[sl],
-            no_audio if peaks is None else peaks[i],
-        )
-        person_ids[sl] = out.person_of_visual
-        cols["frames"].append(np.full(out.ids.shape[0], i + 1))
-        cols["ids"].append(out.ids)
-        cols["az"].append(out.azimuth_deg)
-        cols["el"].append(out.elevation_deg)
-        cols["px"].append(out.pixels)
-        cols["view"].append(out.in_view)
-        cols["speak"].append(out.speaking)
-        cols["side"].append(out.side)
+    persons, person_ids = _track_frames(tracker, vis, vis_app, peaks, n_frames, fps)
     t2 = time.perf_counter()
-    cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in cols.items()}
-    persons = PersonsTable(
-        cat["frames"].astype(np.int64), cat["ids"].astype(np.int64), cat["az"], cat["el"],
-        cat["px"].reshape(-1, 2), cat["view"].astype(bool), cat["speak"], fps,
-        cat["side"].astype(np.int64),
-    )
     tracks = _person_boxes(vis, person_ids)
     # speaking flag of each box: its person's at that frame
     thr = tracker.config.speaking_threshold
@@ -265,6 +241,50 @@ def track_persons(
     return PersonsResult(tracks, speaking, persons, speech, n_frames, fps,
                          fov if fov is not None else (0.0, float(w)),
                          (geometry.image_size[0], geometry.image_size[1]), timing)
+
+
+#: Frames whose rows :func:`_track_frames` gathers into one array per column (thousands of
+#: small per-frame arrays cost more memory than their rows).
+_ROWS_BATCH = 512
+
+
+def _track_frames(
+    tracker: PersonTracker, vis: MOTData, vis_app: np.ndarray | None,
+    peaks: list[np.ndarray] | None, n_frames: int, fps: float,
+) -> tuple[PersonsTable, np.ndarray]:
+    """Step ``tracker`` through every frame: every person every frame, and the person of
+    each row of the visual tracks ``vis`` ``(len(vis),)`` (-1: merged away)."""
+    no_audio = np.zeros(0)
+    person_ids = np.zeros(len(vis), dtype=np.int64)
+    names = ("frames", "ids", "az", "el", "px", "view", "speak", "side")
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in names}
+    done: dict[str, list[np.ndarray]] = {k: [] for k in names}
+    for i, sl in enumerate(vis.frame_slices(n_frames)):
+        out = tracker.step(
+            vis.ids[sl], vis.boxes[sl], None if vis_app is None else vis_app[sl],
+            no_audio if peaks is None else peaks[i],
+        )
+        person_ids[sl] = out.person_of_visual
+        cols["frames"].append(np.full(out.ids.shape[0], i + 1))
+        cols["ids"].append(out.ids)
+        cols["az"].append(out.azimuth_deg)
+        cols["el"].append(out.elevation_deg)
+        cols["px"].append(out.pixels)
+        cols["view"].append(out.in_view)
+        cols["speak"].append(out.speaking)
+        cols["side"].append(out.side)
+        if len(cols["ids"]) == _ROWS_BATCH:
+            for k in names:
+                done[k].append(np.concatenate(cols[k]))
+                cols[k].clear()
+    parts = {k: done[k] + cols[k] for k in names}
+    cat = {k: (np.concatenate(v) if v else np.zeros(0)) for k, v in parts.items()}
+    persons = PersonsTable(
+        cat["frames"].astype(np.int64), cat["ids"].astype(np.int64), cat["az"], cat["el"],
+        cat["px"].reshape(-1, 2), cat["view"].astype(bool), cat["speak"], fps,
+        cat["side"].astype(np.int64),
+    )
+    return persons, person_ids
 
 
 def _person_boxes(vis: MOTData, person_ids: np.ndarray) -> MOTData:

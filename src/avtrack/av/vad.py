@@ -425,29 +425,31 @@ def fuse_speaking(
         return t_heat, np.unique(persons.ids), np.zeros((t_heat.size, 0), dtype=bool)
     ids = np.unique(persons.ids)
     k = max(1, round(smooth_s / hop_s))
-    cand = _candidates(persons, spk, ids, t_heat, round(margin_s / hop_s))
+    heard, frame_of = _heard(persons, spk, ids, t_heat)
+    r = round(margin_s / hop_s)
     # the strongest mass each person is compared with: the frame's strongest direction's
     # (frame_peak) or the strongest candidate's (masses are >= 0)
     top = (_window_peak(w, _near(az_grid, window_deg), k) if frame_peak
            else np.zeros(t_heat.size))
     for n, pid in enumerate(ids.tolist()):
         az = _person_azimuth(persons, pid, t_heat)
-        cand[:, n] &= np.isfinite(az)
-        held = np.where(cand[:, n], _person_mass(w, az, az_grid, window_deg, k), 0.0)
-        top = np.maximum(top, held)
-    speaking = np.zeros(cand.shape, dtype=bool)
+        cand = _candidate(heard[:, n], frame_of, r) & np.isfinite(az)
+        top = np.maximum(top, np.where(cand, _person_mass(w, az, az_grid, window_deg, k), 0.0))
+    speaking = np.zeros((t_heat.size, ids.size), dtype=bool)
     heard_speech = activity.at(t_heat)
     for n, pid in enumerate(ids.tolist()):  # again: one person's values at a time in memory
-        mass = _person_mass(w, _person_azimuth(persons, pid, t_heat), az_grid, window_deg, k)
-        speaking[:, n] = (cand[:, n] & (mass >= share * top) & (mass >= min_mass)
-                          & heard_speech)
+        az = _person_azimuth(persons, pid, t_heat)
+        cand = _candidate(heard[:, n], frame_of, r) & np.isfinite(az)
+        mass = _person_mass(w, az, az_grid, window_deg, k)
+        speaking[:, n] = cand & (mass >= share * top) & (mass >= min_mass) & heard_speech
     return t_heat, ids, speaking
 
 
-def _candidates(
-    persons: PersonsTable, spk: np.ndarray, ids: np.ndarray, t_heat: np.ndarray, r: int
-) -> np.ndarray:
-    """``(J, N)`` bool: persons the tracker heard within ``r`` audio frames."""
+def _heard(
+    persons: PersonsTable, spk: np.ndarray, ids: np.ndarray, t_heat: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Whether the tracker heard each person at each video frame ``(F, N)`` bool (rows:
+    1-based frames), and the video frame of each audio frame ``(J,)`` (clipped to the rows)."""
     fps = persons.fps
     frame_of = np.floor(t_heat * fps + 0.5).astype(np.int64) + 1  # 1-based video frame
     col = {int(pid): i for i, pid in enumerate(ids.tolist())}
@@ -456,9 +458,15 @@ def _candidates(
                          strict=True):
         if s and 0 <= f < heard.shape[0]:
             heard[f, col[pid]] = True
-    cand = heard[np.clip(frame_of, 0, heard.shape[0] - 1)]
+    return heard, np.clip(frame_of, 0, heard.shape[0] - 1)
+
+
+def _candidate(heard: np.ndarray, frame_of: np.ndarray, r: int) -> np.ndarray:
+    """``(J,)`` bool: audio frames within ``r`` frames of one where the tracker heard the
+    person (``heard`` ``(F,)`` per video frame)."""
+    cand = heard[frame_of]
     if r > 0:
-        cand = binary_dilation(cand, structure=np.ones((2 * r + 1, 1), dtype=bool))
+        cand = binary_dilation(cand, structure=np.ones(2 * r + 1, dtype=bool))
     return cand
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 import textwrap
-from contextlib import AbstractContextManager
+from functools import partial
 from pathlib import Path
 
 import yaml
@@ -40,6 +40,7 @@ from avtrack.pipelines.av import (
     track_scene_image,
 )
 from avtrack.pipelines.av_recording import RecordingInputs, RecordingRun, track_own_recording
+from avtrack.pipelines.mot import Stage
 from avtrack.visual.detect import DEFAULT_FACE_DETECTOR, DETECTORS
 from avtrack.viz.plots import plot_covariances
 from avtrack.viz.recording import write_recording_report
@@ -140,6 +141,16 @@ learned GLLiM mapping. SCENE_DIR is a scene directory as written by 'avtrack sim
     )
     p.add_argument("scene", type=Path, metavar="SCENE_DIR", nargs="?",
                    help="scene directory (or give a recording with --audio / --camera)")
+    _add_recording_options(p)
+    av = p.add_argument_group("AV16.3 (SCENE_DIR is a folder of AV16.3 MAT files; with --video)")
+    av.add_argument("--seq", type=int, metavar="N", help="AV16.3 sequence number")
+    av.add_argument("--cam", type=int, choices=(1, 2, 3), help="AV16.3 camera")
+    _add_tracking_options(p)
+    add_common(p, run)
+
+
+def _add_recording_options(p: argparse.ArgumentParser) -> None:
+    """The options of a recording of one's own."""
     rec = p.add_argument_group(
         "a recording of your own (instead of SCENE_DIR; direction model)")
     rec.add_argument("--video", type=Path, metavar="FILE",
@@ -176,9 +187,10 @@ learned GLLiM mapping. SCENE_DIR is a scene directory as written by 'avtrack sim
     add_clipping_option(rec)
     rec.add_argument("--fps", type=float, metavar="F",
                      help="video frame rate when there is no --video (default: the video's)")
-    av = p.add_argument_group("AV16.3 (SCENE_DIR is a folder of AV16.3 MAT files; with --video)")
-    av.add_argument("--seq", type=int, metavar="N", help="AV16.3 sequence number")
-    av.add_argument("--cam", type=int, choices=(1, 2, 3), help="AV16.3 camera")
+
+
+def _add_tracking_options(p: argparse.ArgumentParser) -> None:
+    """Output, model and tracking options."""
     p.add_argument(
         "-o",
         "--output",
@@ -256,7 +268,6 @@ learned GLLiM mapping. SCENE_DIR is a scene directory as written by 'avtrack sim
         help="--model image: write OUT_DIR/covariances.png, the visual, audio and dynamics "
         "covariances of the tracked persons in four frames (Ban et al., Fig. 1)",
     )
-    add_common(p, run)
 
 
 
@@ -303,13 +314,9 @@ def run(args: argparse.Namespace) -> int:
 # ------------------------------------------------------------------------------ output tail
 
 
-def _step(args: argparse.Namespace):
-    """The pipelines' ``step``: an elapsed-time bar per long step (none with --quiet)."""
-
-    def step(what: str) -> AbstractContextManager[object]:
-        return progress.activity(what, args.quiet)
-
-    return step
+def _stage(args: argparse.Namespace) -> Stage:
+    """The pipelines' ``stage``: an elapsed-time bar per long step (none with --quiet)."""
+    return partial(progress.activity, quiet=args.quiet)
 
 
 def _check_output(out: Path) -> None:
@@ -357,7 +364,7 @@ def run_direction(args: argparse.Namespace) -> int:
     config = load_person_config(args.config, args.threshold)
     _check_output(args.output)
     res = track_scene_direction(args.scene, config, fov_fraction=args.fov_fraction,
-                                vad=not args.no_vad, voices=args.voices, step=_step(args))
+                                vad=not args.no_vad, voices=args.voices, stage=_stage(args))
     write_outputs(args.output, res)
     if not args.quiet:
         print(summary(res, args.output))
@@ -371,7 +378,7 @@ def run_image(args: argparse.Namespace) -> int:
     res = track_scene_image(args.scene, config, use_audio=not args.no_audio,
                             mapping=args.mapping, calibration_positions=args.calibration_positions,
                             fov_fraction=args.fov_fraction, record_precisions=args.plot,
-                            step=_step(args))
+                            stage=_stage(args))
     if res.mapping_trained and not args.quiet:
         how = (f"read from the cache ({res.mapping_cache})" if res.mapping_cache is not None
                else "trained on a simulated calibration and cached")
@@ -405,7 +412,7 @@ def run_av163(args: argparse.Namespace) -> int:
     config = load_person_config(args.config, args.threshold)
     _check_output(args.output)
     res = track_av163_sequence(args.scene, args.seq, args.cam, args.video, config,
-                               detector=args.detector, step=_step(args))
+                               detector=args.detector, stage=_stage(args))
     write_outputs(args.output, res)
     if not args.no_report:
         _av163_report(args, res)
@@ -442,7 +449,7 @@ def run_recording(args: argparse.Namespace) -> int:
     _check_output(args.output)
     res = track_own_recording(inputs, config, use_audio=not args.no_audio,
                               vad=not args.no_vad, voices=args.voices, strict=args.strict,
-                              step=_step(args))
+                              stage=_stage(args))
     if not args.quiet:
         source = "the video's header" if res.fps_from_video else "--fps"
         print(f"frame rate: {res.fps:g} fps (from {source}; --fps sets it)")

@@ -6,10 +6,14 @@
   detections or from a detector run on its video.
 - :func:`track_av163`: the speakers of an AV16.3 sequence tracked by an audio-visual SMC-PHD
   filter and scored (OSPA, OSPA-T).
+- :func:`track_scene_direction`, :func:`track_scene_image`, :func:`track_av163_sequence`,
+  :func:`track_own_recording`: persons tracked and diarized from a camera and a microphone
+  array (``avtrack track-av``): a simulated scene directory in the array's direction space or
+  on the image plane (VAVIT), an AV16.3 sequence, a recording of one's own.
 
 The acoustic paths read their input in blocks and hand their rows to a sink as they come, so
-memory stays flat in the recording's length; the command line only parses options, opens
-files and prints.
+memory stays flat in the recording's length (a recording of one's own is localized block by
+block too); the command line only parses options, opens files and prints.
 
 Each path's module is imported when one of its names is first used, so that a command loads
 only what its own path needs (the acoustic paths bring SciPy's signal processing, the visual
@@ -28,6 +32,15 @@ if TYPE_CHECKING:
         localize_recording,
         track_recording,
     )
+    from avtrack.pipelines.av import (
+        AV163Run,
+        AVRun,
+        ImageRun,
+        track_av163_sequence,
+        track_scene_direction,
+        track_scene_image,
+    )
+    from avtrack.pipelines.av_recording import RecordingInputs, RecordingRun, track_own_recording
     from avtrack.pipelines.mot import MOTRun, track_mot_sequence
     from avtrack.pipelines.phd import PHDRun, track_av163
 
@@ -41,6 +54,15 @@ _MODULE_OF = {
     "track_mot_sequence": "mot",
     "PHDRun": "phd",
     "track_av163": "phd",
+    "AVRun": "av",
+    "ImageRun": "av",
+    "AV163Run": "av",
+    "track_scene_direction": "av",
+    "track_scene_image": "av",
+    "track_av163_sequence": "av",
+    "RecordingInputs": "av_recording",
+    "RecordingRun": "av_recording",
+    "track_own_recording": "av_recording",
 }
 
 
@@ -52,12 +74,21 @@ def __getattr__(name: str) -> Any:
 
 
 __all__ = [
+    "AV163Run",
+    "AVRun",
+    "ImageRun",
     "LocalizeRun",
     "MOTRun",
     "PHDRun",
+    "RecordingInputs",
+    "RecordingRun",
     "TrackRun",
     "localize_recording",
     "track_av163",
+    "track_av163_sequence",
     "track_mot_sequence",
+    "track_own_recording",
     "track_recording",
+    "track_scene_direction",
+    "track_scene_image",
 ]

@@ -13,7 +13,7 @@
 
 Each takes paths, configurations and options, returns an :class:`AVRun` (or a subclass with
 what its path adds) and writes nothing: the command line writes the files. Long steps are
-announced through ``step`` (:data:`~avtrack.pipelines.base.Step`); bad input raises
+announced through ``stage`` (:data:`~avtrack.pipelines.mot.Stage`); bad input raises
 :class:`~avtrack.errors.InputError`.
 """
 
@@ -40,7 +40,7 @@ from avtrack.io.rttm import RTTMSegment
 from avtrack.io.scene import SceneInputs, load_scene
 from avtrack.metrics.ospa import ospa_sequence
 from avtrack.phd.likelihood import av163_truth
-from avtrack.pipelines.base import Step, no_step
+from avtrack.pipelines.mot import Stage, no_stage
 from avtrack.visual.detect import load_detector
 
 
@@ -92,7 +92,7 @@ class AVRun:
 
 def beamform_voices(
     audio: np.ndarray, fs: int, array: MicArray, persons: PersonsTable,
-    speech: list[RTTMSegment], step: Step = no_step,
+    speech: list[RTTMSegment], stage: Stage = no_stage,
 ) -> dict[int, np.ndarray]:
     """Each tracked person's voice (:func:`avtrack.audio.beamform.extract_voices`): an MVDR
     beamformer of ``audio`` ``(n_mics, n_samples)`` steered at the person's direction,
@@ -101,7 +101,7 @@ def beamform_voices(
         raise InputError(f"--voices: the audio has {audio.shape[0]} channels, the array "
                          f"{array.n_mics} microphones")
     tracks = tracks_from_persons(persons, speech)
-    with step(f"beamforming {len(tracks)} voices"):
+    with stage(f"beamforming {len(tracks)} voices"):
         try:
             return extract_voices(audio, fs, array, tracks)
         except ValueError as exc:
@@ -118,7 +118,7 @@ def track_scene_direction(
     fov_fraction: float = 1.0,
     vad: bool = True,
     voices: bool = False,
-    step: Step = no_step,
+    stage: Stage = no_stage,
 ) -> AVRun:
     """Persons in the array's direction space on a scene directory
     (:func:`avtrack.av.persons_scene.track_scene_persons`).
@@ -135,12 +135,12 @@ def track_scene_direction(
         warning when it is not); False: the tracker's turns.
     voices : bool
         Also beamform each person's voice from the scene's recording.
-    step : Step
+    stage : Stage
     """
     scene = load_scene(scene_dir)
     t0 = time.perf_counter()
     try:
-        with step(f"tracking {scene.n_frames} frames"):
+        with stage(f"tracking {scene.n_frames} frames"):
             res = track_scene_persons(scene, fov_fraction=fov_fraction, config=config,
                                       vad=None if vad else False)
     except InputError:
@@ -152,7 +152,7 @@ def track_scene_direction(
     if voices:
         t0 = time.perf_counter()
         out_voices = beamform_voices(scene.audio, scene.fs, load_array(scene.path / "array.json"),
-                                     res.persons, res.speech, step)
+                                     res.persons, res.speech, stage)
         elapsed += time.perf_counter() - t0
     return AVRun(res.tracks, res.speaking, res.persons, res.speech, res.n_frames, res.fps,
                  elapsed, out_voices, scene.fs)
@@ -192,7 +192,7 @@ def track_scene_image(
     calibration_positions: int = 120,
     fov_fraction: float = 1.0,
     record_precisions: bool = False,
-    step: Step = no_step,
+    stage: Stage = no_stage,
 ) -> ImageRun:
     """The image-plane model (VAVIT, :func:`avtrack.av.vavit.track_scene`) on a scene
     directory; without audio the visual tracker (OVBT).
@@ -210,7 +210,7 @@ def track_scene_image(
     fov_fraction : float
     record_precisions : bool
         Keep each box's covariance terms (for the covariance figure).
-    step : Step
+    stage : Stage
     """
     if calibration_positions < 4:
         raise InputError(f"--calibration-positions must be >= 4, got {calibration_positions}")
@@ -220,10 +220,10 @@ def track_scene_image(
         if mapping is not None:
             mp = load_mapping(mapping)
         else:
-            mp, cache, mapping_s = _scene_mapping(scene, calibration_positions, step)
+            mp, cache, mapping_s = _scene_mapping(scene, calibration_positions, stage)
     t0 = time.perf_counter()
     try:
-        with step(f"tracking {scene.n_frames} frames"):
+        with stage(f"tracking {scene.n_frames} frames"):
             res = track_scene(scene_dir, mp, config, use_audio=use_audio,
                               fov_fraction=fov_fraction, record_precisions=record_precisions,
                               scene=scene)
@@ -240,7 +240,7 @@ def track_scene_image(
 
 
 def _scene_mapping(
-    scene: SceneInputs, n_positions: int, step: Step
+    scene: SceneInputs, n_positions: int, stage: Stage
 ) -> tuple[AudioImageMapping, Path | None, float]:
     """The scene's audio-to-image mapping, trained on a simulated calibration or read from
     the cache; the cache folder when read from it, and the seconds it took."""
@@ -248,7 +248,7 @@ def _scene_mapping(
     from avtrack.simulate.calibration import mapping_cache_dir, train_scene_mapping
 
     t0 = time.perf_counter()
-    with step(f"audio-to-image mapping (calibration with {n_positions} loudspeaker positions "
+    with stage(f"audio-to-image mapping (calibration with {n_positions} loudspeaker positions "
               f"and training, unless cached)"):
         mp, cached = train_scene_mapping(scene, n_positions)
     return mp, mapping_cache_dir() if cached else None, time.perf_counter() - t0
@@ -287,7 +287,7 @@ def track_av163_sequence(
     config: PersonConfig,
     *,
     detector: str | None = None,
-    step: Step = no_step,
+    stage: Stage = no_stage,
 ) -> AV163Run:
     """The direction-space persons of AV16.3 sequence ``seq`` seen by camera ``cam``, from its
     real video, array 1's DOA measurements and the calibration
@@ -304,14 +304,14 @@ def track_av163_sequence(
     detector : str, optional
         A detector name or ``module:attribute`` (default: the tops of the moving foreground,
         scored by the sequence's colour templates).
-    step : Step
+    stage : Stage
     """
     if not folder.is_dir():
         raise InputError("AV16.3 folder not found", folder)
     sequence = load_av163(folder, seq, cam)
     det = load_detector(detector) if detector is not None else None
     t0 = time.perf_counter()
-    with step(f"detecting and tracking {sequence.n_frames} frames"):
+    with stage(f"detecting and tracking {sequence.n_frames} frames"):
         try:
             res = track_av163(sequence, video, det, config=config)[0]
         except ValueError as exc:

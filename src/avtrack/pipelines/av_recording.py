@@ -46,8 +46,13 @@ from avtrack.io.video import VideoInfo, iter_frames, probe_video
 from avtrack.localize import HeatMaps, make_localizer
 from avtrack.localize.grid import DirectionGrid
 from avtrack.pipelines.av import AVRun, beamform_voices
-from avtrack.pipelines.base import Step, no_step
-from avtrack.pipelines.video import check_against_video, detect_in_video, read_appearance
+from avtrack.pipelines.mot import (
+    Stage,
+    check_against_video,
+    detect_in_video,
+    load_appearance,
+    no_stage,
+)
 from avtrack.visual.detect import DEFAULT_FACE_DETECTOR
 from avtrack.visual.histograms import detection_histograms
 
@@ -157,7 +162,7 @@ def localize_for_persons(
     *,
     vad: bool = True,
     localizer: str = PERSONS_LOCALIZER,
-    step: Step = no_step,
+    stage: Stage = no_stage,
 ) -> PersonsAudio:
     """The recording's heat maps and their peaks per video frame
     (:func:`~avtrack.av.persons_scene.audio_peaks`), localized block by block, with the voice
@@ -175,7 +180,7 @@ def localize_for_persons(
     vad : bool
     localizer : str
         A registered localizer.
-    step : Step
+    stage : Stage
     """
     grid = localizer_grid(recording.array)
     loc = make_localizer(localizer, recording.array, grid)
@@ -188,7 +193,7 @@ def localize_for_persons(
     n_obs = np.empty(n, dtype=np.int64)
     done = 0
     loc.reset()
-    with step(f"localizing {recording.info.samples / FS:.1f} s"):
+    with stage(f"localizing {recording.info.samples / FS:.1f} s"):
         for block in recording.blocks():
             part = loc.process(block)
             weights[done : done + len(part)] = part.weights
@@ -204,7 +209,7 @@ def localize_for_persons(
                         floor=audio_peak_floor(localizer))
     activity = None
     if level is not None:
-        with step("voice activity"):
+        with stage("voice activity"):
             activity = voice_activity_blocks((b[0] for b in recording.blocks()), level.value())
     return PersonsAudio(peaks, heat if activity is not None else None, grid, grid_span(grid),
                         activity)
@@ -219,7 +224,7 @@ def track_own_recording(
     voices: bool = False,
     strict: bool = False,
     block_s: float = BLOCK_SECONDS,
-    step: Step = no_step,
+    stage: Stage = no_stage,
 ) -> RecordingRun:
     """Persons of a recording of one's own, tracked in the array's direction space
     (:func:`~avtrack.av.persons_scene.track_persons`): see the module docstring.
@@ -239,7 +244,7 @@ def track_own_recording(
         A camera file that disagrees with the recording is an error, not a warning.
     block_s : float
         Seconds of audio read at a time.
-    step : Step
+    stage : Stage
 
     Raises
     ------
@@ -258,24 +263,24 @@ def track_own_recording(
     fps = _frame_rate(inputs.fps, video)
     recording = _open_recording(inputs, block_s) if use_audio else None
     n_frames = _frame_count(recording, video, fps)
-    dets, n_frames, appearance = _visual_inputs(inputs, video, n_frames, step)
+    dets, n_frames, appearance = _visual_inputs(inputs, video, n_frames, stage)
     peaks, audio = None, None
     if use_audio and inputs.doa is not None:
         peaks = azimuths_per_frame(read_doa_csv(inputs.doa), fps, n_frames)
     elif recording is not None:
-        audio = localize_for_persons(recording, fps, n_frames, vad=vad, step=step)
+        audio = localize_for_persons(recording, fps, n_frames, vad=vad, stage=stage)
         peaks = audio.peaks
     fit = check = None
     if peaks is not None:
         camera, fit, check = _calibrate(inputs, camera, dets, peaks, fps, image_size, n_frames,
-                                        strict, step)
+                                        strict, stage)
     if camera is None:
         raise InputError("--camera auto needs the audio's directions")
     vcfg = config.visual
     if inputs.appearance is None and appearance is not None and vcfg.appearance != "bhattacharyya":
         vcfg = replace(vcfg, appearance="bhattacharyya", appearance_lambda=2.0)
     t0 = time.perf_counter()
-    with step(f"tracking {n_frames} frames"):
+    with stage(f"tracking {n_frames} frames"):
         try:
             res = track_persons(
                 dets, appearance, peaks, CameraGeometry(camera, np.zeros(3), 0.0), fps,
@@ -291,7 +296,7 @@ def track_own_recording(
     if voices and recording is not None:
         t0 = time.perf_counter()
         out_voices = beamform_voices(recording.read(), FS, recording.array, res.persons,
-                                     res.speech, step)
+                                     res.speech, stage)
         elapsed += time.perf_counter() - t0
     return RecordingRun(
         res.tracks, res.speaking, res.persons, res.speech if peaks is not None else None,
@@ -353,7 +358,7 @@ def _frame_count(recording: ArrayRecording | None, video: VideoInfo | None, fps:
 
 
 def _visual_inputs(
-    inputs: RecordingInputs, video: VideoInfo | None, n_frames: int, step: Step
+    inputs: RecordingInputs, video: VideoInfo | None, n_frames: int, stage: Stage
 ) -> tuple[MOTData, int, np.ndarray | None]:
     """The detections (read, or found in the video's frames), the frame count they give
     with ``n_frames``, and their appearance (read, or colour histograms from the video)."""
@@ -361,19 +366,19 @@ def _visual_inputs(
         dets = read_mot(inputs.detections, kind="det")
         n_frames = max(n_frames, dets.n_frames)
     elif inputs.video is not None:
-        dets = detect_in_video(inputs.video, inputs.detector or DEFAULT_FACE_DETECTOR, step)
+        dets = detect_in_video(inputs.video, inputs.detector or DEFAULT_FACE_DETECTOR, stage)
     else:
         raise InputError("give --video (detections found in its frames) or --detections")
     if n_frames < 1:
         raise InputError("nothing to track: no frames")
     appearance = None
     if inputs.appearance is not None:
-        appearance = read_appearance(inputs.appearance, len(dets))
+        appearance = load_appearance(inputs.appearance, len(dets))
     if video is not None:
         check_against_video(dets, video,
                             video.path if inputs.detections is None else inputs.detections)
         if appearance is None:
-            with step(f"colour histograms of {len(dets)} boxes"):
+            with stage(f"colour histograms of {len(dets)} boxes"):
                 appearance = detection_histograms(iter_frames(video.path, video), dets,
                                                   n_frames)
     return dets, n_frames, appearance
@@ -382,7 +387,7 @@ def _visual_inputs(
 def _calibrate(
     inputs: RecordingInputs, camera: PinholeCamera | None, dets: MOTData,
     peaks: list[np.ndarray], fps: float, image_size: tuple[int, int], n_frames: int,
-    strict: bool, step: Step,
+    strict: bool, stage: Stage,
 ) -> tuple[PinholeCamera, CameraFit | None, CameraCheck | None]:
     """No camera: the camera estimated from the people seen talking; a camera file: checked
     against the recording (``strict``: its first warning is an error). Returns the camera
@@ -393,13 +398,13 @@ def _calibrate(
     ev = camera_evidence(dets, peaks, fps, image_size, elevations)
     if camera is None:
         try:
-            with step("estimating the camera from the people seen talking"):
+            with stage("estimating the camera from the people seen talking"):
                 fit = fit_camera(ev)
         except ValueError as exc:
             raise InputError(f"--camera auto: {exc}") from None
         return fit.camera, fit, None
     path = inputs.camera if inputs.camera is not None else Path("CAMERA.yaml")
-    with step(f"checking {path.name} against the recording"):
+    with stage(f"checking {path.name} against the recording"):
         chk = check_camera(camera, ev, name=path.name)
     if strict and chk.warnings:
         raise InputError(f"--strict: {chk.warnings[0]}", path)

@@ -440,6 +440,10 @@ def image_size_from_detections(dets: MOTData) -> tuple[int, int]:
     return (int(np.ceil(max(right.max(), 1.0))), int(np.ceil(max(bottom.max(), 1.0))))
 
 
+#: Frames of results :func:`track_mot` gathers into one array per column.
+_ROWS_BATCH = 512
+
+
 def track_mot(
     dets: MOTData, appearance: np.ndarray | None = None, config: OVBTConfig | None = None,
     image_size: tuple[int, int] | None = None, n_frames: int | None = None,
@@ -472,14 +476,26 @@ def track_mot(
             raise ValueError(f"appearance must have one row per detection ({len(dets)}), got "
                              f"shape {appearance.shape}")
     tracker = OVBTracker(config, image_size or image_size_from_detections(dets), fps)
-    ids, boxes, conf = [], [], []
+    rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # ids, boxes, confidences
+    done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    counts: list[int] = []
     for obs in tracker._frame_observations(dets, appearance, n_frames):
         out = tracker._step(obs)
-        ids.append(out[0])
-        boxes.append(out[1])
-        conf.append(out[2])
-    if not ids:
+        rows.append(out)
+        counts.append(len(out[0]))
+        if len(rows) == _ROWS_BATCH:  # one array per column, not thousands of small ones
+            done.append(_stack(rows))
+            rows = []
+    if not counts:
         return MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
-    counts = [len(i) for i in ids]
-    return MOTData(np.repeat(np.arange(1, len(ids) + 1), counts), np.concatenate(ids),
-                   xywh_to_ltwh(np.vstack(boxes)), np.concatenate(conf))
+    ids, boxes, conf = _stack([*done, *rows])
+    return MOTData(np.repeat(np.arange(1, len(counts) + 1), counts), ids, xywh_to_ltwh(boxes),
+                   conf)
+
+
+def _stack(
+    rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Ids, boxes and confidences of consecutive frames, each column in one array."""
+    return (np.concatenate([r[0] for r in rows]), np.vstack([r[1] for r in rows]),
+            np.concatenate([r[2] for r in rows]))
