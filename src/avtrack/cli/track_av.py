@@ -4,6 +4,10 @@ Two models: ``direction`` (default), persons in the array's direction space
 (:mod:`avtrack.av.persons`), who stay tracked out of the camera's view and are born from
 audio too; ``image``, the thesis's image-plane model (VAVIT, :mod:`avtrack.av.vavit`)
 with its learned GLLiM audio-to-image mapping.
+
+Each input (a scene directory, a recording of one's own, an AV16.3 sequence) is one function
+of :mod:`avtrack.pipelines.av` / :mod:`avtrack.pipelines.av_recording`; this module parses
+the options, prints and writes the files (:func:`write_outputs`).
 """
 
 from __future__ import annotations
@@ -270,7 +274,6 @@ def _add_tracking_options(p: argparse.ArgumentParser) -> None:
     )
 
 
-
 def load_vavit_config(path: Path | None, threshold: float | None) -> VAVITConfig:
     """VAVITConfig from ``--config`` (``visual:`` overrides the default visual fields), with
     ``--threshold`` on top."""
@@ -320,6 +323,7 @@ def _stage(args: argparse.Namespace) -> Stage:
 
 
 def _check_output(out: Path) -> None:
+    """OUT_DIR must be a folder (checked before any work)."""
     if out.exists() and not out.is_dir():
         raise InputError("output exists and is not a directory", out)
 
