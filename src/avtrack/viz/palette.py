@@ -29,9 +29,6 @@ TAB10_HEX: tuple[str, ...] = (
     "#17becf",
 )
 
-#: Grey of what belongs to no person (ground truth, unmatched directions).
-NO_PERSON_HEX = "#9a9a9a"
-
 
 def _person_id(person: int) -> int:
     if isinstance(person, bool) or not hasattr(person, "__index__"):

@@ -737,7 +737,7 @@ class _H264Writer:
         self._out = av.open(str(tmp), "w", format="mp4", options={"movflags": "+faststart"})
         try:
             rate = Fraction(r.fps).limit_denominator(1001)  # 29.97 -> 30000/1001
-            stream = self._out.add_stream(H264_ENCODER, rate=rate)
+            stream: Any = self._out.add_stream(H264_ENCODER, rate=rate)
             stream.width, stream.height = r.out_size
             stream.pix_fmt = "yuv420p"
             stream.options = dict(_H264_OPTIONS)
