@@ -40,7 +40,7 @@ class AzimuthAxis:
     Attributes
     ----------
     centre : float
-        Azimuth of the axis's middle, degrees in [-180, 180).
+        Azimuth of the axis's middle, degrees in (-180, 180].
     lo, hi : float
         Axis limits, ``centre - 180 <= lo < hi <= centre + 180``.
     """
@@ -119,7 +119,7 @@ def azimuth_axis(
     k = int(np.argmax(gaps))
     start = a[(k + 1) % a.size]  # the arc begins after the largest gap ...
     length = 360.0 - gaps[k]  # ... and runs to the point before it
-    centre = float(wrap_deg(start + length / 2))
+    centre = float(-wrap_deg(-(start + length / 2)))  # in (-180, 180]: 180 stays 180
     half = max(length / 2 + margin_deg, min_span_deg / 2)
     if half >= 180.0:
         return AzimuthAxis(centre, centre - 180.0, centre + 180.0)
