@@ -3,8 +3,10 @@
 Playwright drives the system's Chromium (``/usr/bin/chromium`` from Debian's ``chromium``
 package, or ``AVTRACK_CHROMIUM``); every request other than ``file:`` and ``data:`` is aborted
 and recorded. The page must load its figures and the video overlay, show the scores, and give
-a non-blank screenshot. ``.ci/run`` installs Chromium and sets ``AVTRACK_REQUIRE_BROWSER=1``,
-so in CI a missing browser is a failure, not a skip.
+a non-blank screenshot; at 400 and 1280 px it must not scroll sideways, show each figure in
+the layout for that width with text of at least 10 px on screen, and play the H.264 MP4.
+``.ci/run`` installs Chromium and sets ``AVTRACK_REQUIRE_BROWSER=1``, so in CI a missing
+browser is a failure, not a skip.
 """
 
 from __future__ import annotations
@@ -145,7 +147,7 @@ def test_demo_report_at_phone_and_desktop_widths(chromium_page, demo_report, tmp
     """At 400 and 1280 px: offline, no sideways scrolling, each figure in its layout for
     the width (narrow rendition on the phone) with text of at least 10 px on screen, the
     H.264 MP4 offered first and playing, and a non-blank screenshot."""
-    from avtrack.viz.report import MIN_SCREEN_FONT_PX
+    from avtrack.viz.report import MIN_SCREEN_FONT_PX, NARROW_MAX_PX
     from avtrack.viz.video import h264_available
 
     page = chromium_page
@@ -169,7 +171,7 @@ def test_demo_report_at_phone_and_desktop_widths(chromium_page, demo_report, tmp
         assert len(figures) == 4, figures
         for f in figures:
             assert f["complete"] and f["natural"] > 100, f
-            assert f["narrow"] == (width <= 760), f  # re-laid out for the phone, not shrunk
+            assert f["narrow"] == (width <= NARROW_MAX_PX), f  # re-laid out, not shrunk
             assert 0 < f["shown"] <= width, f
             on_screen = f["shown"] / f["natural"] * f["font"]  # CSS px of the smallest text
             assert on_screen >= MIN_SCREEN_FONT_PX, (f["alt"], on_screen)
