@@ -23,8 +23,9 @@ from avtrack.errors import InputError
 C = TypeVar("C")
 
 
-def read_config_mapping(path, what: str) -> dict:
-    """The mapping in a ``--config`` YAML file (``{}`` for an empty file), with clear errors.
+def read_config_mapping(path, what: str, kind: str = "config") -> dict:
+    """The mapping in a ``--config`` (or ``--options``) YAML file (``{}`` for an empty file),
+    with clear errors.
 
     Parameters
     ----------
@@ -32,11 +33,13 @@ def read_config_mapping(path, what: str) -> dict:
         The file.
     what : str
         What the mapping holds, for the error message (e.g. ``"OVBTConfig fields"``).
+    kind : str
+        The file's kind in the message for a missing file (``"config"``, ``"options"``).
     """
     import yaml
 
     if not path.is_file():
-        raise InputError("config file not found", path)
+        raise InputError(f"{kind} file not found", path)
     try:
         loaded = yaml.safe_load(path.read_bytes())
     except yaml.YAMLError as exc:

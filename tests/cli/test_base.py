@@ -1,4 +1,4 @@
-"""``avtrack.cli.base``: ``--config`` files onto a command's options."""
+"""``avtrack.cli.base``: ``--options`` files onto a command's options."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from avtrack.cli.base import add_config_option
+from avtrack.cli.base import add_options_option
 from avtrack.errors import InputError
 
 
@@ -21,7 +21,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--fast", action="store_true")
     p.add_argument("--print", dest="print_only", action="store_true")
     p.set_defaults(func=vars)
-    add_config_option(p, exclude=("print_only",))
+    add_options_option(p, exclude=("print_only",))
     return p
 
 
@@ -33,7 +33,7 @@ def _run(argv: list[str]) -> dict:
 def test_options_from_a_file_the_command_line_wins(tmp_path):
     cfg = tmp_path / "o.yaml"
     cfg.write_text("name: walkout\nseed: 3\nduration: 5\nmode: b\nfast: true\n")
-    got = _run(["-o", "out", "--config", str(cfg), "--seed", "0"])
+    got = _run(["-o", "out", "--options", str(cfg), "--seed", "0"])
     assert (got["name"], got["seed"], got["mode"], got["fast"]) == ("walkout", 0, "b", True)
     assert got["duration"] == 5.0 and isinstance(got["duration"], float)
     got = _run(["-o", "out"])  # no file: the defaults
@@ -56,11 +56,21 @@ def test_option_file_errors(tmp_path, text, message):
     cfg = tmp_path / "o.yaml"
     cfg.write_text(text)
     with pytest.raises(InputError) as exc:
-        _run(["-o", "out", "--config", str(cfg), "--seed", "2"])  # checked even if overridden
+        _run(["-o", "out", "--options", str(cfg), "--seed", "2"])  # checked even if overridden
     assert str(exc.value).startswith(f"{cfg}: {message}")
 
 
-def test_add_config_option_needs_the_command_first():
+def test_add_options_option_needs_the_command_first():
     p = argparse.ArgumentParser()
     with pytest.raises(RuntimeError, match="set_defaults"):
-        add_config_option(p)
+        add_options_option(p)
+
+
+def test_config_on_a_command_without_an_algorithm_names_options(tmp_path):
+    cfg = tmp_path / "o.yaml"
+    cfg.write_text("seed: 3\n")
+    with pytest.raises(InputError) as exc:
+        _run(["-o", "out", "--config", str(cfg)])
+    assert str(exc.value) == (f"{cfg}: --config holds an algorithm's parameters and this "
+                              "command runs none: give its option values with --options "
+                              "FILE.yaml")

@@ -2,8 +2,10 @@
 
 The commands are found by walking :func:`avtrack.cli.main.build_parser`, so a new command is
 checked without being listed here: ``--help`` with runnable examples, ``--quiet`` /
-``--verbose``, and ``--config FILE.yaml`` whose errors are one line naming the file and the
-field, raised before any input is read (the inputs given here do not exist).
+``--verbose``, and a settings file whose errors are one line naming the file and the field,
+raised before any input is read (the inputs given here do not exist): ``--config FILE.yaml``
+(the algorithm's parameters) on a command that runs one, ``--options FILE.yaml`` (the
+command's own option values) on the others, where ``--config`` is refused naming ``--options``.
 """
 
 from __future__ import annotations
@@ -38,6 +40,13 @@ def _is_group(parser: argparse.ArgumentParser) -> bool:
 ALL = dict(_subcommands(build_parser()))
 COMMANDS = sorted(path for path, p in ALL.items() if not _is_group(p))
 ids = " ".join
+
+
+def _file_option(path: tuple[str, ...]) -> str:
+    """``--options`` where the command takes its option values from a file, else
+    ``--config``."""
+    options = {s for a in ALL[path]._actions for s in a.option_strings}
+    return "--options" if "--options" in options else "--config"
 
 
 def _argv(path: tuple[str, ...], tmp_path: Path) -> list[str]:
@@ -107,14 +116,26 @@ def test_quiet_verbose_and_config_options(path, tmp_path):
     assert parser.parse_args([*argv, "--quiet"]).quiet is True
     assert parser.parse_args([*argv, "--verbose"]).verbose is True
     assert parser.parse_args([*argv, "-q"]).verbose is False
-    options = {s for a in ALL[path]._actions for s in a.option_strings}
-    assert "--config" in options
+    visible = {s for a in ALL[path]._actions if a.help != argparse.SUPPRESS
+               for s in a.option_strings}
+    assert ("--config" in visible) != ("--options" in visible), visible  # exactly one
+
+
+@pytest.mark.parametrize("path", [p for p in COMMANDS if _file_option(p) == "--options"],
+                         ids=ids)
+def test_config_on_an_options_command_is_one_line_naming_options(path, tmp_path, capsys):
+    cfg = tmp_path / "algo.yaml"
+    cfg.write_text("seed: 1\n")
+    assert main([*_argv(path, tmp_path), "--config", str(cfg)]) == 2
+    line = _error_line(capsys)
+    assert line.startswith(f"avtrack: error: {cfg}: --config holds an algorithm's parameters")
+    assert "--options FILE.yaml" in line
 
 
 def _allowed_fields(path, tmp_path, capsys) -> list[str]:
     cfg = tmp_path / "unknown.yaml"
     cfg.write_text("no_such_field: 1\n")
-    assert main([*_argv(path, tmp_path), "--config", str(cfg)]) == 2
+    assert main([*_argv(path, tmp_path), _file_option(path), str(cfg)]) == 2
     line = _error_line(capsys)
     prefix = f"avtrack: error: {cfg}: no_such_field: unknown field (allowed: "
     assert line.startswith(prefix) and line.endswith(")"), line
@@ -132,7 +153,7 @@ def test_config_wrong_type_is_one_line_naming_the_field(path, tmp_path, capsys):
     for field in _allowed_fields(path, tmp_path, capsys):
         # a list of lists is no number, switch, string, path, tuple or mapping
         cfg.write_text(yaml.safe_dump({field: [[[]]]}))
-        assert main([*_argv(path, tmp_path), "--config", str(cfg)]) == 2, field
+        assert main([*_argv(path, tmp_path), _file_option(path), str(cfg)]) == 2, field
         line = _error_line(capsys)
         assert line.startswith(f"avtrack: error: {cfg}: {field}"), line
 
@@ -140,14 +161,16 @@ def test_config_wrong_type_is_one_line_naming_the_field(path, tmp_path, capsys):
 @pytest.mark.parametrize("path", COMMANDS, ids=ids)
 def test_missing_config_file_is_one_line(path, tmp_path, capsys):
     cfg = tmp_path / "none.yaml"
-    assert main([*_argv(path, tmp_path), "--config", str(cfg)]) == 2
-    assert _error_line(capsys) == f"avtrack: error: {cfg}: config file not found"
+    option = _file_option(path)
+    assert main([*_argv(path, tmp_path), option, str(cfg)]) == 2
+    kind = option.lstrip("-")
+    assert _error_line(capsys) == f"avtrack: error: {cfg}: {kind} file not found"
 
 
-def test_command_line_options_override_the_config_file(tmp_path, capsys):
+def test_command_line_options_override_the_options_file(tmp_path, capsys):
     cfg = tmp_path / "sim.yaml"
     cfg.write_text("scenario: walkout\nseed: 4\nduration: 7\n")
-    assert main(["simulate", "--print", "--config", str(cfg), "--seed", "5"]) == 0
+    assert main(["simulate", "--print", "--options", str(cfg), "--seed", "5"]) == 0
     scenario = yaml.safe_load(capsys.readouterr().out)
     assert (scenario["seed"], scenario["duration"]) == (5, 7.0)  # --seed wins, file's duration
     assert scenario["name"].startswith("walkout")

@@ -114,7 +114,7 @@ def test_missing_folder_and_bad_arguments(tmp_path, folder, capsys):
     capsys.readouterr()
     cfg = tmp_path / "c.yaml"
     cfg.write_text("array: 2\n")
-    assert _convert(folder, tmp_path / "out", "--config", str(cfg)) == 2
+    assert _convert(folder, tmp_path / "out", "--options", str(cfg)) == 2
     assert _error(capsys) == f"avtrack: error: {cfg}: array: expected one of 1, got 2"
 
 

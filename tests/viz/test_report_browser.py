@@ -3,8 +3,10 @@
 Playwright drives the system's Chromium (``/usr/bin/chromium`` from Debian's ``chromium``
 package, or ``AVTRACK_CHROMIUM``); every request other than ``file:`` and ``data:`` is aborted
 and recorded. The page must load its figures and the video overlay, show the scores, and give
-a non-blank screenshot. ``.ci/run`` installs Chromium and sets ``AVTRACK_REQUIRE_BROWSER=1``,
-so in CI a missing browser is a failure, not a skip.
+a non-blank screenshot; at 400 and 1280 px it must not scroll sideways, show each figure in
+the layout for that width with text of at least 10 px on screen, and play the H.264 MP4.
+``.ci/run`` installs Chromium and sets ``AVTRACK_REQUIRE_BROWSER=1``, so in CI a missing
+browser is a failure, not a skip.
 """
 
 from __future__ import annotations
@@ -124,4 +126,83 @@ def test_demo_report_is_readable_on_a_400_px_screen(chromium_page, demo_report):
             "Array.from(document.querySelectorAll('#scores td.help')).map(t => t.innerText)")
         assert len(helps) >= 8 and all(("better" in h or "real time" in h) for h in helps)
     finally:
+        page.set_viewport_size({"width": 1280, "height": 900})
+
+
+# what each figure's images say about themselves: their rendition (narrow when the page
+# shows the <source>'s image), the size on screen and in the image, and the smallest text
+_FIGURES_JS = """
+Array.from(document.querySelectorAll('figure picture')).map(p => {
+  const img = p.querySelector('img'), src = p.querySelector('source');
+  const narrow = img.currentSrc === src.srcset;
+  return {alt: img.alt, complete: img.complete, natural: img.naturalWidth, narrow: narrow,
+          shown: img.getBoundingClientRect().width,
+          font: parseFloat((narrow ? src : img).dataset.fontPx)};
+})
+"""
+
+
+@pytest.mark.parametrize("width", [400, 1280])
+def test_demo_report_at_phone_and_desktop_widths(chromium_page, demo_report, tmp_path, width):
+    """At 400 and 1280 px: offline, no sideways scrolling, each figure in its layout for
+    the width (narrow rendition on the phone) with text of at least 10 px on screen, the
+    H.264 MP4 offered first and playing, and a non-blank screenshot."""
+    from avtrack.viz.report import MIN_SCREEN_FONT_PX, NARROW_MAX_PX
+    from avtrack.viz.video import h264_available
+
+    page = chromium_page
+    blocked: list[str] = []
+
+    def offline(route):
+        if route.request.url.startswith(("file:", "data:")):
+            route.continue_()
+        else:
+            blocked.append(route.request.url)
+            route.abort()
+
+    page.route("**/*", offline)
+    page.set_viewport_size({"width": width, "height": 900})
+    try:
+        page.goto((demo_report / "index.html").as_uri(), wait_until="load")
+        assert blocked == [], f"the report asked the network for {blocked}"
+        scroll = page.evaluate("document.scrollingElement.scrollWidth")
+        assert scroll <= width, f"the page is {scroll} px wide on a {width} px screen"
+        figures = page.evaluate(_FIGURES_JS)
+        assert len(figures) == 4, figures
+        for f in figures:
+            assert f["complete"] and f["natural"] > 100, f
+            assert f["narrow"] == (width <= NARROW_MAX_PX), f  # re-laid out, not shrunk
+            assert 0 < f["shown"] <= width, f
+            on_screen = f["shown"] / f["natural"] * f["font"]  # CSS px of the smallest text
+            assert on_screen >= MIN_SCREEN_FONT_PX, (f["alt"], on_screen)
+        types = page.evaluate(
+            "Array.from(document.querySelectorAll('#overlay source')).map(s => s.type)")
+        if h264_available():
+            assert types[0].startswith('video/mp4; codecs="avc1.') and len(types) == 2, types
+        assert types[-1].startswith("video/webm"), types
+        links = page.evaluate("Array.from(document.links).map(a => a.textContent)")
+        assert "tracks.webm" in links and ("tracks.mp4" in links) == h264_available(), links
+        assert links.index("tracks.mp4" if h264_available() else "tracks.webm") == 0, links
+        page.evaluate("document.getElementById('overlay').play()")
+        page.wait_for_function(
+            "() => { const v = document.getElementById('overlay'); "
+            "return v.readyState >= 2 && v.currentTime > 0.2; }",
+            timeout=20000,
+        )
+        played = page.evaluate(
+            "(() => { const v = document.getElementById('overlay'); return [v.currentSrc.slice("
+            "0, 16), v.videoWidth, v.error, v.getBoundingClientRect().width]; })()"
+        )
+        mime = "data:video/mp4;" if h264_available() else "data:video/webm"
+        assert played[0].startswith(mime[:15]) and played[1] >= 320 and played[2] is None
+        assert 0 < played[3] <= width, played
+        shot = tmp_path / f"report-{width}.png"
+        page.screenshot(path=str(shot), full_page=True)
+        import matplotlib.image as mpimg
+
+        pixels = mpimg.imread(shot)
+        assert pixels.shape[1] == width and pixels.shape[0] > 1500  # the whole page, no wider
+        assert float(np.std(pixels[..., :3])) > 0.05  # figures drawn, not a blank page
+    finally:
+        page.unroute("**/*")
         page.set_viewport_size({"width": 1280, "height": 900})

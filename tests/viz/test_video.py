@@ -328,3 +328,63 @@ def test_legend_sits_at_the_top_clear_of_player_controls():
     assert rows.size > 0
     assert rows.max() < SIZE[1] * 2 // 3, (rows.min(), rows.max(), SIZE)
     assert rows.min() > 5  # below the header band's first text row, not over the frame edge
+
+
+# --------------------------------------------------------------------------- H.264 and WebM
+
+
+def test_mp4_is_h264_where_pyav_has_the_encoder_and_mpeg4_part_2_otherwise(tmp_path,
+                                                                           monkeypatch):
+    from avtrack.viz.video import h264_available, html_video_type
+
+    tracks, speaking = _tracks()
+    if h264_available():
+        path = render_overlay_video(tmp_path / "h.mp4", tracks, speaking, SIZE, 25.0)
+        assert html_video_type(path).startswith('video/mp4; codecs="avc1.')
+        assert len(_read(path)) == N_FRAMES
+    monkeypatch.setattr(video, "h264_available", lambda: False)
+    path = render_overlay_video(tmp_path / "p2.mp4", tracks, speaking, SIZE, 25.0)
+    assert html_video_type(path) is None  # MPEG-4 Part 2: browsers do not play it
+    assert len(_read(path)) == N_FRAMES
+    webm = render_overlay_video(tmp_path / "v.webm", tracks, speaking, SIZE, 25.0)
+    assert html_video_type(webm) == 'video/webm; codecs="vp8"'
+    with pytest.raises(ValueError, match="cannot read"):
+        (tmp_path / "text.mp4").write_text("not a video\n")
+        html_video_type(tmp_path / "text.mp4")
+
+
+def test_also_to_writes_more_files_of_the_same_frames_in_one_pass(tmp_path):
+    tracks, speaking = _tracks()
+    drawn = []
+    frames = (np.full((SIZE[1], SIZE[0], 3), 90, np.uint8) for _ in range(N_FRAMES))
+
+    def counted():
+        for img in frames:
+            drawn.append(1)
+            yield img
+
+    path = render_overlay_video(tmp_path / "a.webm", tracks, speaking, SIZE, 25.0,
+                                frames=counted(), also_to=[tmp_path / "a.mp4"])  # fmt: skip
+    assert len(drawn) == N_FRAMES  # the video's frames read once for both files
+    webm, mp4 = _read(path), _read(tmp_path / "a.mp4")
+    assert len(webm) == len(mp4) == N_FRAMES
+    assert np.median(np.abs(webm[5].astype(int) - mp4[5].astype(int))) < 6
+    with pytest.raises(TypeError, match="also_to must be a sequence of paths"):
+        render_overlay_video(tmp_path / "b.webm", tracks, speaking, SIZE, 25.0,
+                             also_to=tmp_path / "b.mp4")  # type: ignore[arg-type]
+
+
+def test_a_failure_leaves_none_of_the_files(tmp_path, monkeypatch):
+    tracks, speaking = _tracks()
+    frame = video._Renderer.frame
+
+    def fail_at_5(self, f):
+        if f == 5:
+            raise RuntimeError("boom")
+        return frame(self, f)
+
+    monkeypatch.setattr(video._Renderer, "frame", fail_at_5)
+    with pytest.raises(RuntimeError, match="boom"):
+        render_overlay_video(tmp_path / "out.webm", tracks, speaking, SIZE, 25.0,
+                             also_to=[tmp_path / "out.mp4"])  # fmt: skip
+    assert list(tmp_path.iterdir()) == []

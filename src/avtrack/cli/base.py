@@ -4,16 +4,17 @@ Each sub-command module defines ``register(subparsers)`` that adds its parser an
 ``func`` (a callable ``args -> int`` exit status) with ``parser.set_defaults(func=...)``.
 Modules are listed in :data:`avtrack.cli.main.COMMAND_MODULES`.
 
-``--config FILE.yaml`` holds the parameters of the command's algorithm where the command runs
-one (``track-mot``, ``track-phd``, ``localize``, ``track-audio`` ...): the fields of its config
-dataclass (``OVBTConfig``, ``PHDConfig`` ...), added by :func:`add_algorithm_config_option`
-and read by :func:`avtrack.config.load_config`, which checks the file field by field against
-the dataclass. A command that runs no single algorithm (``demo``, ``simulate``, ``eval``,
-``batch``) takes its own option values instead: :func:`add_config_option` adds ``--config``
-whose keys are the options' names. Either way the errors have one wording (that of the
-scenario and suite files: ``FILE: a.b: what is wrong``), options given on the command line
-override the file, and the file is checked before any input is read, so a bad file fails at
-once.
+Two files, two names. ``--config FILE.yaml`` always holds the parameters of the command's
+algorithm, on the commands that run one (``track-mot``, ``track-phd``, ``localize``,
+``track-audio`` ...): the fields of its config dataclass (``OVBTConfig``, ``PHDConfig`` ...),
+added by :func:`add_algorithm_config_option` and read by :func:`avtrack.config.load_config`,
+which checks the file field by field against the dataclass. ``--options FILE.yaml`` holds a
+command's own option values by name, on the commands that run no single algorithm (``demo``,
+``simulate``, ``eval``, ``batch``, ``convert``), added by :func:`add_options_option`; there
+``--config`` is refused with a line that names ``--options``. Either way the errors have one
+wording (that of the scenario and suite files: ``FILE: a.b: what is wrong``), options given on
+the command line override the file, and the file is checked before any input is read, so a
+bad file fails at once.
 """
 
 from __future__ import annotations
@@ -223,47 +224,54 @@ def _option_value(action: argparse.Action, value: Any, field: str, path) -> Any:
     return value
 
 
-def add_config_option(parser: argparse.ArgumentParser, exclude: tuple[str, ...] = ()) -> None:
-    """Add ``--config FILE.yaml`` holding values of this parser's options.
+def add_options_option(parser: argparse.ArgumentParser, exclude: tuple[str, ...] = ()) -> None:
+    """Add ``--options FILE.yaml`` holding values of this parser's options.
 
     A key is an option's long name with ``_`` for ``-`` (``--n-frames 10`` is
     ``n_frames: 10``, ``--mot`` is ``mot: true``); an optional positional is a key too. Values
     mean what they mean on the command line (paths relative to the working directory).
     Options given on the command line override the file. Not settable: required options,
     ``--quiet``/``--verbose``, and the ``exclude`` destinations (actions such as ``--print``).
+    ``--config`` (an algorithm's parameters elsewhere) is refused with a line naming
+    ``--options``.
 
     Call it last in ``register``, after ``set_defaults(func=...)``: it wraps ``func`` so that
     the command sees the merged options, and the file is checked before the command starts.
     """
     func = parser.get_default("func")
     if func is None:
-        raise RuntimeError("add_config_option: call parser.set_defaults(func=...) first")
+        raise RuntimeError("add_options_option: call parser.set_defaults(func=...) first")
     settings = _settings(parser, exclude)
     for action in settings.values():
         action.default = _Unset(action.default)
     keys = ", ".join(sorted(settings))
     parser.add_argument(
-        "--config",
+        "--options",
         type=Path,
         metavar="FILE.yaml",
         help=f"this command's option values from a YAML mapping (keys: {keys}); options "
         "given on the command line win",
     )
+    parser.add_argument("--config", type=Path, dest="misplaced_config", help=argparse.SUPPRESS)
 
     @functools.wraps(func)
-    def run_with_config(args: argparse.Namespace) -> int:
-        apply_config_file(args, settings)
+    def run_with_options(args: argparse.Namespace) -> int:
+        if args.misplaced_config is not None:
+            raise InputError(
+                "--config holds an algorithm's parameters and this command runs none: give "
+                "its option values with --options FILE.yaml", args.misplaced_config)
+        apply_options_file(args, settings)
         check_outputs(args)  # the file may have named the outputs
         return func(args)
 
-    parser.set_defaults(func=run_with_config)
+    parser.set_defaults(func=run_with_options)
 
 
-def apply_config_file(args: argparse.Namespace, settings: Mapping[str, argparse.Action]) -> None:
-    """Fill the options not given on the command line from ``args.config``, else their
+def apply_options_file(args: argparse.Namespace, settings: Mapping[str, argparse.Action]) -> None:
+    """Fill the options not given on the command line from ``args.options``, else their
     defaults (in place). Every key of the file is checked, overridden or not."""
-    path = args.config
-    values = {} if path is None else read_config_mapping(path, "option values")
+    path = args.options
+    values = {} if path is None else read_config_mapping(path, "option values", "options")
     unknown = sorted(str(k) for k in values if k not in settings)
     if unknown:
         raise InputError(f"{unknown[0]}: {_unknown(settings)}", path)
@@ -343,10 +351,10 @@ __all__ = [
     "add_clipping_option",
     "add_command",
     "add_common",
-    "add_config_option",
     "add_grid_options",
+    "add_options_option",
     "add_output_option",
-    "apply_config_file",
+    "apply_options_file",
     "check_outputs",
     "grid_from_options",
     "write_json",

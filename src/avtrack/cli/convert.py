@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from avtrack.cli.base import add_command, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_options_option
 from avtrack.errors import InputError
 from avtrack.io.av163_export import AV163_EXPORT_ARRAYS
 
@@ -80,7 +80,7 @@ SMC-PHD authors distribute them.""",
     p.add_argument("-o", "--output", dest="out_dir", type=Path, required=True,
                    metavar="OUT_DIR", help="output folder (created), for doa.csv and camera.yaml")
     add_common(p, run_av163)
-    add_config_option(p)
+    add_options_option(p)
 
 
 def _av163_inputs(folder: Path, seq: int, cam: int) -> list[Path]:

@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_options_option
 from avtrack.io.base import atomic_write
 from avtrack.io.datasets import find_shared_data
 from avtrack.io.mot import read_mot, write_mot
@@ -26,11 +26,11 @@ EXAMPLES = """\
 examples:
   avtrack demo                  # simulated meeting; report in ./avtrack-demo/index.html
   avtrack demo -o /tmp/demo --seed 3 --duration 30 --people 4
-  avtrack demo --config demo.yaml --seed 5    # the file's settings, another seed
+  avtrack demo --options demo.yaml --seed 5   # the file's settings, another seed
   avtrack demo --mot            # the real MOT15 TUD-Campus sequence (needs ../shared/data)
   AVTRACK_SHARED_DATA=/data/shared/data avtrack demo --mot
 
-The --config YAML holds option values by name, e.g.:
+The --options YAML holds option values by name, e.g.:
   output: runs/demo
   seed: 3
   duration: 30
@@ -61,7 +61,7 @@ and write DIR/index.html. With --mot: track the real MOT15 TUD-Campus detections
     p.add_argument("--people", type=int, default=3, choices=(2, 3, 4), metavar="N",
                    help="people in the meeting: 2, 3 or 4 (default 3)")
     add_common(p, run)
-    add_config_option(p)
+    add_options_option(p)
 
 
 def run(args: argparse.Namespace) -> int:

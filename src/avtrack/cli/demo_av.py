@@ -174,7 +174,8 @@ def _figures(scene, scene_dir: Path, inputs, res, loc, heat, doa_tracks, gt, ref
         ),
         "DOA heat map (DPRTF-EG), speaking ground truth (white), von Mises DOA tracks": (
             report.heatmap_figure(
-                heat.weights, heat.time_s, loc.grid.azimuth_deg, truth, doa_tracks
+                heat.weights, heat.time_s, loc.grid.azimuth_deg, truth, doa_tracks,
+                persons=res.persons,
             )
         ),
         "Every person's direction from the array, in view or not (thick: speaking; grey / "

@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from avtrack.audio.stft import FRAME_HOP_S
-from avtrack.cli.base import add_command, add_common, add_config_option, write_json
+from avtrack.cli.base import add_command, add_common, add_options_option, write_json
 from avtrack.errors import InputError
 from avtrack.io.base import read_audio_file
 from avtrack.io.mot import read_mot
@@ -75,7 +75,7 @@ examples:
   avtrack eval mot gt.txt res.txt -q --json scores.json
 
   # the options from a file (keys: benchmark, n_frames, json), e.g. "benchmark: MOT17"
-  avtrack eval mot MOT17-02/gt/gt.txt MOT17-02.txt --config eval.yaml
+  avtrack eval mot MOT17-02/gt/gt.txt MOT17-02.txt --options eval.yaml
 
 Matches need IoU >= 0.5 (CLEAR-MOT, identity) or are averaged over IoU 0.05..0.95 (HOTA), as
 in TrackEval; the threshold is part of the metrics' definitions, not an option.
@@ -105,12 +105,12 @@ Score a result against ground truth. Choose the task below.""",
 def _add_scores_outputs(
     parser: argparse.ArgumentParser, run: Callable[[argparse.Namespace], int]
 ) -> None:
-    """Add the options every eval task shares (``--json``, common, ``--config``) to *parser*."""
+    """Add the options every eval task shares (``--json``, common, ``--options``) to *parser*."""
     parser.add_argument(
         "--json", type=Path, metavar="OUT.json", help="also write the scores as JSON"
     )
     add_common(parser, run)
-    add_config_option(parser)
+    add_options_option(parser)
 
 
 def _add_mot_task(tasks: argparse._SubParsersAction) -> None:
@@ -273,7 +273,7 @@ examples:
   # thresholds from a file (keys: json, roc, success_deg, threshold), e.g.
   #   success_deg: 10
   #   threshold: 0.05
-  avtrack eval doa scene/gt/doa.csv doa.csv --config doa-eval.yaml
+  avtrack eval doa scene/gt/doa.csv doa.csv --options doa-eval.yaml
 """
 
 

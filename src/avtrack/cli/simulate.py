@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_options_option
 from avtrack.errors import InputError
 from avtrack.io.scenario import (
     SCENARIO_REFERENCE,
@@ -31,9 +31,9 @@ examples:
   avtrack simulate meeting --print            # show the scenario YAML, simulate nothing
   avtrack simulate my-scene.yaml -o scenes/mine
   avtrack simulate --help-scenario            # every scenario field, with its default
-  avtrack simulate --config sim.yaml --seed 4 # the file's options, another seed
+  avtrack simulate --options sim.yaml --seed 4 # the file's options, another seed
 
-The --config YAML holds option values by name (SCENARIO included), e.g.:
+The --options YAML holds option values by name (SCENARIO included), e.g.:
   scenario: walkout
   output: scenes/walkout
   duration: 30
@@ -85,7 +85,7 @@ ground truth (boxes, directions of arrival, who speaks when).""",
         "--help-scenario", action="store_true", help="print every scenario field and exit"
     )
     add_common(p, run)
-    add_config_option(p, exclude=("print_only", "help_scenario"))
+    add_options_option(p, exclude=("print_only", "help_scenario"))
 
 
 def resolve_scenario(args: argparse.Namespace) -> tuple[dict, Path | None]:

@@ -1,6 +1,10 @@
 """Figures of the command line's ``--plot`` options: heat maps and DOA tracks over time,
 SMC-PHD tracks with their OSPA, and the audio-visual tracker's covariances. Each is written
 atomically as an image file; matplotlib is imported when a figure is drawn.
+
+A track or person is drawn in the colour of its id (:func:`avtrack.viz.palette.person_colour`),
+as in the HTML report and the video overlay; azimuth axes are zoomed to the arc of the tracks
+and the ground truth, the wrap at +-180 degrees handled (:mod:`avtrack.viz.azimuth`).
 """
 
 from __future__ import annotations
@@ -14,6 +18,8 @@ from avtrack.io.base import atomic_write
 from avtrack.io.doa import DOATable
 from avtrack.localize import DirectionGrid, HeatMaps
 from avtrack.phd import PHDResult
+from avtrack.viz.azimuth import azimuth_axis
+from avtrack.viz.palette import person_colour
 
 
 # -- output ------------------------------------------------------------------------------
@@ -24,7 +30,8 @@ def plot_heatmap(
     title: str = "",
     truth: DOATable | None = None,
 ) -> None:
-    """Heat map over time and azimuth (thesis Fig. 5.2 b–e), written atomically as PNG."""
+    """Heat map over time and azimuth (thesis Fig. 5.2 b–e), written atomically as PNG; with
+    ``truth``, the azimuth axis is zoomed to the arc of its talkers."""
     try:
         import matplotlib
 
@@ -33,30 +40,34 @@ def plot_heatmap(
     except ImportError:
         raise InputError("--plot needs matplotlib (pip install matplotlib)", path) from None
     w = heatmaps.weights.reshape(len(heatmaps), grid.n_elevations, grid.n_azimuths).max(axis=1)
-    az = grid.azimuth_values
+    axis = azimuth_axis(truth.azimuth_deg) if truth is not None and len(truth) else None
+    az = grid.azimuth_values if axis is None else axis.unwrap(grid.azimuth_values)
+    order = np.argsort(az, kind="stable")  # columns contiguous around the axis's centre
+    az = az[order]
     t0 = heatmaps.time_s[0] if len(heatmaps) else 0.0
     t1 = heatmaps.time_s[-1] if len(heatmaps) else 1.0
-    step = az[1] - az[0] if az.size > 1 else 1.0
+    step = float(np.median(np.diff(az))) if az.size > 1 else 1.0
     fig, ax = plt.subplots(figsize=(9, 3.6), dpi=110)
     im = ax.imshow(
-        w.T,
+        w[:, order].T,
         aspect="auto",
         origin="lower",
         cmap="viridis",
         extent=(t0, t1, az[0] - step / 2, az[-1] + step / 2),
         interpolation="nearest",
     )
-    if truth is not None and len(truth):
+    if truth is not None and axis is not None:
         on = truth.active
         ax.plot(
             truth.time_s[on],
-            truth.azimuth_deg[on],
+            axis.unwrap(truth.azimuth_deg[on]),
             ".",
             ms=1.0,
             color="red",
             label="ground truth (active)",
         )
-    if truth is not None and len(truth):
+    if axis is not None:
+        axis.apply(ax, "y")
         ax.legend(loc="upper right", fontsize=7, markerscale=8)
     ax.set_xlim(t0, t1)
     ax.set_xlabel("time (s)")
@@ -73,7 +84,8 @@ def plot_doa_tracks(
     path: Path, tracks: DOATable, truth: DOATable | None = None, title: str = ""
 ) -> None:
     """Tracks over time coloured by identity (thesis Fig. 5.2 f / 5.5), with the ground truth
-    above them when given; written atomically as PNG."""
+    above them when given; written atomically as PNG. Both panels share one azimuth axis,
+    zoomed to the arc of the tracks and the ground truth."""
     try:
         import matplotlib
 
@@ -85,33 +97,32 @@ def plot_doa_tracks(
     fig, axes = plt.subplots(
         rows, 1, figsize=(9, 2.6 * rows + 0.6), dpi=110, sharex=True, squeeze=False
     )
-    cmap = plt.get_cmap("tab10")
     panels = [] if truth is None else [(axes[0, 0], truth, "ground truth (speaking)")]
     panels.append((axes[-1, 0], tracks, "tracks (speaking; faint: silent)"))
+    axis = azimuth_axis(*(table.azimuth_deg for _, table, _ in panels))
     for ax, table, label in panels:
-        for k, tid in enumerate(np.unique(table.ids)):
+        for tid in np.unique(table.ids):
             sel = table.ids == tid
             on = sel & table.active
             ax.plot(
                 table.time_s[on],
-                table.azimuth_deg[on],
+                axis.unwrap(table.azimuth_deg[on]),
                 ".",
                 ms=2.0,
-                color=cmap(k % 10),
+                color=person_colour(int(tid)),
                 label=f"{tid}",
             )
             if table is tracks:
                 off = sel & ~table.active
                 ax.plot(
                     table.time_s[off],
-                    table.azimuth_deg[off],
+                    axis.unwrap(table.azimuth_deg[off]),
                     ".",
                     ms=0.8,
                     alpha=0.3,
-                    color=cmap(k % 10),
+                    color=person_colour(int(tid)),
                 )
-        ax.set_ylim(-180, 180)
-        ax.set_yticks([-180, -90, 0, 90, 180])
+        axis.apply(ax, "y")
         ax.set_ylabel("azimuth (deg)")
         ax.set_title(label, fontsize=9)
         if 0 < len(np.unique(table.ids)) <= 12:
@@ -137,8 +148,8 @@ def plot_phd_tracks(
     order: int = 2,
     cutoff: float = 50.0,
 ) -> None:
-    """SMC-PHD estimates over the ground truth in the image, and OSPA over time; written
-    atomically (format from the suffix)."""
+    """SMC-PHD estimates over the ground truth in the image, each in its track's colour (dark
+    grey: no identity), and OSPA over time; written atomically (format from the suffix)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -150,15 +161,13 @@ def plot_phd_tracks(
     rows = result.rows(frames)
     if len(rows):
         ids = rows[:, 1]
-        sc = ax.scatter(
+        ax.scatter(
             rows[:, 2],
             rows[:, 3],
             s=3,
-            c=np.where(ids >= 0, ids % 20, -1),
-            cmap="tab20",
+            c=[person_colour(int(i)) if i >= 0 else "0.3" for i in ids],  # dark grey: no id
             label="estimates",
         )
-        sc.set_clim(-1, 19)
     ax.set_xlim(0, 360)
     ax.set_ylim(288, 0)
     ax.set_aspect("equal")
@@ -204,9 +213,10 @@ def _covariance(prec: np.ndarray) -> tuple[np.ndarray, bool]:
 
 def plot_covariances(res, path: Path, no_audio: bool = False) -> None:
     """Four frames, as Fig. 1 of Ban et al., "Variational Bayesian inference for audio-visual
-    tracking of multiple speakers" (IEEE TPAMI 2019); rows: tracked head boxes (green id:
-    speaking, red: silent), and the visual, audio and dynamics covariances (inverses of the
-    precision terms #1, #2, #3 of eq. 4.26) of each tracked person."""
+    tracking of multiple speakers" (IEEE TPAMI 2019); rows: tracked head boxes (thick, tagged
+    ``<id> speaking`` when speaking, as in the video overlay), and the visual, audio and
+    dynamics covariances (inverses of the precision terms #1, #2, #3 of eq. 4.26) of each
+    tracked person, each person in their colour (:func:`avtrack.viz.palette.person_colour`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -221,16 +231,6 @@ def plot_covariances(res, path: Path, no_audio: bool = False) -> None:
         picks = np.array([1, 1, 1, 1])
     rows = ["tracks", "visual (#1)", "audio (#2)", "dynamics (#3)"]
     fig, axes = plt.subplots(4, 4, figsize=(13, 10), squeeze=False)
-    palette = (
-        "tab:blue",
-        "tab:orange",
-        "tab:purple",
-        "tab:brown",
-        "tab:pink",
-        "tab:olive",
-        "tab:cyan",
-        "tab:gray",
-    )  # no green / red: those mark speaking / silent ids
     for c, f in enumerate(picks):
         sel = np.flatnonzero(tracks.frames == f)
         for r, name in enumerate(rows):
@@ -250,19 +250,20 @@ def plot_covariances(res, path: Path, no_audio: bool = False) -> None:
                 ax.set_title(f"frame {int(f)}")
             for i in sel:
                 tid = int(tracks.ids[i])
-                col = palette[tid % len(palette)]
+                col = person_colour(tid)
                 box = tracks.boxes[i]
                 centre = (box[0] + box[2] / 2, box[1] + box[3] / 2)
                 if r == 0:
-                    ax.add_patch(plt.Rectangle(box[:2], box[2], box[3], fill=False, color=col))
                     speaking = bool(res.speaking[i])
+                    ax.add_patch(plt.Rectangle(box[:2], box[2], box[3], fill=False, color=col,
+                                               lw=3.0 if speaking else 1.0))
                     ax.text(
                         box[0],
                         box[1] - 8,
-                        str(tid),
+                        f"{tid} speaking" if speaking else str(tid),
                         fontsize=10,
                         weight="bold",
-                        color="green" if speaking else "red",
+                        color=col,
                     )
                     continue
                 if res.precisions is None or (no_audio and r == 2):

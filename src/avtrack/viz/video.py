@@ -8,19 +8,22 @@ The simulator renders no images, so every frame is drawn here, back to front:
    a wall/floor gradient;
 2. **the ground-truth people**: a head-and-shoulders silhouette at each ground-truth head box,
    the farthest (smallest) first, and optionally the ground-truth box as a thin grey outline;
-3. **the tracks**: each box outlined in its identity's colour (the ``tab10`` colours, by rank of
-   the track id, as in :func:`avtrack.viz.report.trajectories_figure`) with an id tag above it;
+3. **the tracks**: each box outlined in its person's colour (:func:`avtrack.viz.palette.
+   person_bgr`, the colour of that id on every figure of the report) with an id tag above it;
    a track that speaks gets a thicker box, the tag ``<id> speaking`` and a speech bubble (filled
    in the track's colour, white rim and dots) beside the head, to the right of the box;
 4. the frame number, time and title in a band at the top, and the legend under it at the top
    left (clear of a video player's controls, which cover the bottom).
 
 Frames are ``(height, width, 3)`` ``uint8`` BGR images (OpenCV's order). The container follows
-the file suffix, :data:`VIDEO_CODECS`: ``.mp4`` with MPEG-4 Part 2 (``mp4v``; plays in VLC and
-most desktop players, not inline in browsers) or ``.webm`` with VP8 (plays inline in Chromium
-and Firefox). Both encoders need even frame sizes: an odd width or height is rounded up and the
-extra column / row is background. Files are written atomically (a temporary file next to the
-destination, renamed onto it when complete).
+the file suffix: ``.mp4`` with H.264 (PyAV's ``libx264``, :data:`H264_ENCODER`; plays in web
+browsers and video players) where PyAV has that encoder, else with OpenCV's MPEG-4 Part 2
+(``mp4v``, which browsers do not play); ``.webm`` with OpenCV's VP8 (plays in Chromium and
+Firefox). A ``codec`` given explicitly is an OpenCV four-character code (:data:`VIDEO_CODECS`
+holds the defaults). The encoders need even frame sizes: an odd width or height is rounded up
+and the extra column / row is background. Files are written atomically (a temporary file next
+to the destination, renamed onto it when complete); several files of the same frames are
+written in one pass (``also_to``), so a video's frames are read once.
 
 Example
 -------
@@ -31,41 +34,41 @@ Example
 from __future__ import annotations
 
 import contextlib
+import functools
 import itertools
 import math
 import os
 import sys
 from collections.abc import Iterable, Iterator, Sequence
+from fractions import Fraction
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from avtrack.io.base import temp_output
 from avtrack.io.camera import PinholeCamera
 from avtrack.io.mot import MOTData
+from avtrack.viz.palette import person_bgr
 
 if TYPE_CHECKING:
     from avtrack.av.persons_scene import PersonsResult
     from avtrack.av.vavit import AVSceneResult
     from avtrack.io.scene import SceneInputs
 
-#: Four-character code of the encoder used for each file suffix.
+#: Four-character code of OpenCV's encoder for each file suffix (for ``.mp4``, used only where
+#: PyAV has no H.264 encoder, or when asked for with ``codec``).
 VIDEO_CODECS: dict[str, str] = {".mp4": "mp4v", ".webm": "VP80"}
 
-#: matplotlib's ``tab10`` as BGR: track ``k`` (by rank of id) gets ``TAB10_BGR[k % 10]``.
-TAB10_BGR: tuple[tuple[int, int, int], ...] = (
-    (180, 119, 31),
-    (14, 127, 255),
-    (44, 160, 44),
-    (40, 39, 214),
-    (189, 103, 148),
-    (75, 86, 140),
-    (194, 119, 227),
-    (127, 127, 127),
-    (34, 189, 188),
-    (207, 190, 23),
-)
+#: PyAV's encoder of the ``.mp4`` files (H.264), and its settings: constant quality 23 (x264's
+#: default) at the ``fast`` preset, 4:2:0 chroma (what browsers decode), the index at the front
+#: of the file (playback starts before a linked file is fully read).
+H264_ENCODER = "libx264"
+_H264_OPTIONS = {"crf": "23", "preset": "fast"}
+
+#: matplotlib's ``tab10`` as BGR: person ``p`` gets ``TAB10_BGR[(p - 1) % 10]``
+#: (:func:`avtrack.viz.palette.person_bgr`).
+TAB10_BGR: tuple[tuple[int, int, int], ...] = tuple(person_bgr(k) for k in range(1, 11))
 
 #: Spacing of the floor grid, metres.
 FLOOR_GRID_M = 0.5
@@ -145,7 +148,8 @@ def _native_stderr_silenced():
 
 
 def video_codec(path: str | Path, codec: str | None = None) -> str:
-    """The four-character code to encode ``path`` with.
+    """The four-character code of OpenCV's encoder for ``path`` (the file is encoded by
+    OpenCV with it unless it is an ``.mp4`` without ``codec`` and :func:`h264_available`).
 
     Parameters
     ----------
@@ -176,7 +180,12 @@ def video_codec(path: str | Path, codec: str | None = None) -> str:
 
 
 def track_colours(ids: np.ndarray | Sequence[int]) -> dict[int, tuple[int, int, int]]:
-    """BGR colour of each track id: ``tab10`` by rank of the sorted unique ids.
+    """BGR colour of each track id: ``tab10`` by rank of the sorted unique ids (ten distinct
+    colours for up to ten tracks, whatever their ids).
+
+    These depend on which other ids are given; the overlay and the report's figures colour a
+    person by their id alone (:func:`avtrack.viz.palette.person_bgr`), which is the same as
+    this when the ids are ``1, ..., K``.
 
     Parameters
     ----------
@@ -185,7 +194,7 @@ def track_colours(ids: np.ndarray | Sequence[int]) -> dict[int, tuple[int, int, 
     Returns
     -------
     dict
-        ``{id: (b, g, r)}``, the colours of :func:`avtrack.viz.report.trajectories_figure`.
+        ``{id: (b, g, r)}``.
     """
     unique = np.unique(np.asarray(ids, dtype=np.int64))
     return {int(t): TAB10_BGR[k % len(TAB10_BGR)] for k, t in enumerate(unique)}
@@ -472,7 +481,7 @@ class _Renderer:
         self.background = bg
         self.lay = _Layout(h)
         ids = tracks.ids if persons is None else np.r_[tracks.ids, persons.ids]
-        self.colours = track_colours(ids)
+        self.colours = {int(i): person_bgr(int(i)) for i in np.unique(ids)}
         self.track_rows = tracks.frame_slices(n_frames)
         self.person_rows = None
         if persons is not None:
@@ -705,9 +714,54 @@ def render_overlay_frames(
     return (r.frame(f) for f in range(1, r.n_frames + 1))
 
 
-def _open_video_writer(tmp: Path, fourcc: str, r: _Renderer, path: Path):
-    """An OpenCV writer of ``r``'s frames into ``tmp`` (RuntimeError naming ``path`` if the
-    ``fourcc`` encoder cannot be opened)."""
+@functools.cache
+def h264_available() -> bool:
+    """Whether PyAV is installed with the H.264 encoder :data:`H264_ENCODER` (its wheels
+    ship it): then ``.mp4`` files are H.264, which web browsers play."""
+    try:
+        import av
+
+        av.codec.Codec(H264_ENCODER, "w")
+    except Exception:  # ImportError, or av's error for an encoder it was built without
+        return False
+    return True
+
+
+class _H264Writer:
+    """PyAV's H.264 encoder into an MP4 file, with OpenCV's writer's ``write`` / ``release``."""
+
+    def __init__(self, tmp: Path, r: _Renderer):
+        import av
+
+        self._av = av
+        self._out = av.open(str(tmp), "w", format="mp4", options={"movflags": "+faststart"})
+        try:
+            rate = Fraction(r.fps).limit_denominator(1001)  # 29.97 -> 30000/1001
+            stream: Any = self._out.add_stream(H264_ENCODER, rate=rate)
+            stream.width, stream.height = r.out_size
+            stream.pix_fmt = "yuv420p"
+            stream.options = dict(_H264_OPTIONS)
+        except BaseException:
+            self._out.close()
+            raise
+        self._stream = stream
+
+    def write(self, img: np.ndarray) -> None:
+        frame = self._av.VideoFrame.from_ndarray(img, format="bgr24")
+        self._out.mux(self._stream.encode(frame))  # converted to the stream's yuv420p
+
+    def release(self) -> None:
+        try:
+            self._out.mux(self._stream.encode(None))  # flush the delayed frames
+        finally:
+            self._out.close()
+
+
+def _open_video_writer(tmp: Path, fourcc: str | None, r: _Renderer, path: Path) -> Any:
+    """A writer of ``r``'s frames into ``tmp``: H.264 through PyAV when ``fourcc`` is None,
+    else OpenCV's with that code (RuntimeError naming ``path`` if it cannot be opened)."""
+    if fourcc is None:
+        return _H264Writer(tmp, r)
     import cv2
 
     with _native_stderr_silenced():  # FFmpeg's harmless 'tag ... not supported' notice
@@ -722,10 +776,14 @@ def _open_video_writer(tmp: Path, fourcc: str, r: _Renderer, path: Path):
 
 
 def _write_frames(
-    writer, r: _Renderer, frames: Iterable[np.ndarray] | None, desc: str, progress: bool
+    writers: Sequence[Any],
+    r: _Renderer,
+    frames: Iterable[np.ndarray] | None,
+    desc: str,
+    progress: bool,
 ) -> None:
-    """Write ``r``'s frames ``1, ..., r.n_frames`` with ``writer``, drawn over ``frames`` when
-    given (ValueError if they end early)."""
+    """Write ``r``'s frames ``1, ..., r.n_frames`` with every writer, drawn over ``frames``
+    when given (ValueError if they end early)."""
     from tqdm import tqdm
 
     source = None if frames is None else iter(frames)
@@ -735,33 +793,109 @@ def _write_frames(
             bg = next(source, None)
             if bg is None:
                 raise ValueError(f"the video ended at frame {f - 1} of {r.n_frames}")
-        writer.write(r.frame(f) if bg is None else r.frame(f, bg))
+        img = r.frame(f) if bg is None else r.frame(f, bg)
+        for writer in writers:
+            writer.write(img)
 
 
-def _encode_video(
-    path: Path, fourcc: str, r: _Renderer, frames: Iterable[np.ndarray] | None, progress: bool
+def _encoder(path: Path, codec: str | None) -> str | None:
+    """OpenCV's four-character code for ``path``, or None for H.264 through PyAV."""
+    fourcc = video_codec(path, codec)
+    if codec is None and path.suffix.lower() == ".mp4" and h264_available():
+        return None
+    return fourcc
+
+
+def _encode_videos(
+    targets: Sequence[tuple[Path, str | None]],
+    r: _Renderer,
+    frames: Iterable[np.ndarray] | None,
+    progress: bool,
 ) -> None:
-    """Encode ``r``'s frames into ``path`` through a temporary file, leaving nothing at
-    ``path`` on failure."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = temp_output(path, path.suffix)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    writer = None
+    """Encode ``r``'s frames into each ``(path, fourcc)`` of ``targets`` in one pass, each
+    through a temporary file, leaving none of the paths changed on failure."""
+    temps: list[Path] = []
+    writers: list[Any] = []
     try:
-        writer = _open_video_writer(tmp, fourcc, r, path)
-        _write_frames(writer, r, frames, path.name, progress)
-        writer.release()
-        writer = None
-        if tmp.stat().st_size == 0:
-            raise RuntimeError(f"OpenCV wrote an empty video for {path} (codec {fourcc!r})")
-        os.replace(tmp, path)
+        for path, fourcc in targets:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            fd, tmp_name = temp_output(path, path.suffix)
+            os.close(fd)
+            temps.append(Path(tmp_name))
+            writers.append(_open_video_writer(temps[-1], fourcc, r, path))
+        _write_frames(writers, r, frames, targets[0][0].name, progress)
+        while writers:
+            writers.pop(0).release()
+        for (path, fourcc), tmp in zip(targets, temps, strict=True):
+            if tmp.stat().st_size == 0:
+                raise RuntimeError(
+                    f"the encoder wrote an empty video for {path} (codec {fourcc or 'H.264'!r})"
+                )
+        for (path, _), tmp in zip(targets, temps, strict=True):
+            os.replace(tmp, path)
     except BaseException:
-        if writer is not None:
-            writer.release()
-        with contextlib.suppress(FileNotFoundError):
-            tmp.unlink()
+        for writer in writers:
+            with contextlib.suppress(Exception):
+                writer.release()
+        for tmp in temps:
+            with contextlib.suppress(FileNotFoundError):
+                tmp.unlink()
         raise
+
+
+def html_video_type(path: str | Path) -> str | None:
+    """The ``type`` of an HTML ``<source>`` for a video file (MIME type and codec), or None
+    for a video web browsers do not play (an MP4 of MPEG-4 Part 2, say).
+
+    The codec is read from the file (PyAV, or OpenCV's four-character code without it); an
+    H.264 MP4 is typed with its profile and level, ``video/mp4; codecs="avc1.64001E"``.
+
+    Raises
+    ------
+    ValueError
+        When the file cannot be read as a video.
+    """
+    path = Path(path)
+    name, avcc = _probe_codec(path)
+    suffix = path.suffix.lower()
+    if suffix == ".webm" and name in ("vp8", "vp9"):
+        return f'video/webm; codecs="{name}"'
+    if suffix == ".mp4" and name == "h264":
+        if len(avcc) >= 4 and avcc[0] == 1:  # avcC: version, profile, compatibility, level
+            return f'video/mp4; codecs="avc1.{avcc[1]:02X}{avcc[2]:02X}{avcc[3]:02X}"'
+        return "video/mp4"
+    return None
+
+
+def _probe_codec(path: Path) -> tuple[str, bytes]:
+    """FFmpeg's name of the first video stream's codec and its extra data (the ``avcC``
+    record of H.264 in MP4; empty when read through OpenCV)."""
+    try:
+        import av
+    except ImportError:
+        return _probe_codec_opencv(path)
+    try:
+        with av.open(str(path)) as container:
+            ctx = container.streams.video[0].codec_context
+            return ctx.name, bytes(ctx.extradata or b"")
+    except (av.FFmpegError, IndexError) as exc:
+        raise ValueError(f"cannot read {path} as a video: {exc}") from None
+
+
+def _probe_codec_opencv(path: Path) -> tuple[str, bytes]:
+    """:func:`_probe_codec` through OpenCV's four-character code (no extra data)."""
+    import cv2
+
+    cap = cv2.VideoCapture(str(path))
+    try:
+        if not cap.isOpened():
+            raise ValueError(f"cannot read {path} as a video")
+        code = int(cap.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").decode("latin-1")
+    finally:
+        cap.release()
+    names = {"avc1": "h264", "h264": "h264", "vp80": "vp8", "vp90": "vp9", "fmp4": "mpeg4",
+             "mp4v": "mpeg4"}  # fmt: skip
+    return names.get(code.lower(), code.lower()), b""
 
 
 def render_overlay_video(
@@ -782,6 +916,7 @@ def render_overlay_video(
     progress: bool = False,
     persons=None,
     frames: Iterable[np.ndarray] | None = None,
+    also_to: Sequence[str | Path] = (),
 ) -> Path:
     """Write the video of the tracks and their speaking status over the rendered room, or
     over the real video's frames (``frames``).
@@ -789,7 +924,8 @@ def render_overlay_video(
     Parameters
     ----------
     path : str or Path
-        ``.mp4`` or ``.webm`` file (:data:`VIDEO_CODECS`); its folder is created if needed.
+        ``.mp4`` (H.264 where :func:`h264_available`, else MPEG-4 Part 2) or ``.webm`` (VP8)
+        file; its folder is created if needed.
     tracks : MOTData
         Tracked head boxes ``(left, top, width, height)``, 1-based frames, one id per track
         (e.g. :attr:`AVSceneResult.tracks <avtrack.av.vavit.AVSceneResult>`).
@@ -810,11 +946,11 @@ def render_overlay_video(
     room_dims : ndarray (3,), optional
         Room size in metres (``scene.yaml`` ``room.dims``), for the walls.
     codec : str, optional
-        Four-character code overriding the suffix's default.
+        OpenCV four-character code for ``path`` overriding the suffix's default.
     show_gt_boxes : bool
         Outline the ground-truth boxes in thin grey.
     legend : bool
-        Track colours and symbols, bottom left.
+        Track colours and symbols, top left.
     title : str, optional
         Written at the top right of each frame.
     progress : bool
@@ -827,6 +963,9 @@ def render_overlay_video(
         The real video's BGR frames ``1, ..., n_frames`` (e.g.
         :func:`avtrack.io.video.iter_frames`), drawn over instead of the rendered room, one at
         a time; a video that ends early is an error.
+    also_to : sequence of str or Path
+        More files of the same frames (each ``.mp4`` or ``.webm``, with its suffix's default
+        codec), encoded in the same pass: the frames are drawn, and ``frames`` read, once.
 
     Returns
     -------
@@ -840,17 +979,19 @@ def render_overlay_video(
     TypeError
         Arguments of the wrong type (``speaking`` not boolean, ``tracks`` not MOTData, ...).
     RuntimeError
-        OpenCV cannot open an encoder for ``codec``. Nothing is left at ``path`` then, nor
-        after any other failure.
+        OpenCV cannot open an encoder for ``codec``. Nothing is left at ``path`` (nor at the
+        ``also_to`` paths) then, nor after any other failure.
     """
-    path = Path(path)
-    fourcc = video_codec(path, codec)
+    if isinstance(also_to, str | Path):
+        raise TypeError(f"also_to must be a sequence of paths, got the single path {also_to!r}")
+    targets = [(Path(path), _encoder(Path(path), codec))]
+    targets += [(Path(p), _encoder(Path(p), None)) for p in also_to]
     r = _renderer(
         tracks, speaking, image_size, fps, n_frames, gt, camera, room_dims, show_gt_boxes,
         legend, title, persons,
     )
-    _encode_video(path, fourcc, r, frames, progress)
-    return path
+    _encode_videos(targets, r, frames, progress)
+    return Path(path)
 
 
 def render_scene_video(

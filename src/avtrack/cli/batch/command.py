@@ -8,7 +8,7 @@ import time
 from pathlib import Path
 
 from avtrack.cli import progress
-from avtrack.cli.base import add_command, add_common, add_config_option
+from avtrack.cli.base import add_command, add_common, add_options_option
 from avtrack.errors import InputError
 
 EXAMPLES = """\
@@ -57,7 +57,7 @@ complete are run (--force: all). The rows are the same whichever backend ran the
 'seconds' column differs). On a remote cluster, OUT and the inputs must be at the same paths
 on every worker.
 
-The --config YAML holds option values by name, e.g.:
+The --options YAML holds option values by name, e.g.:
   workers: 4
   scheduler: tcp://10.0.0.5:8786
 """
@@ -88,7 +88,7 @@ truth is given. Resumes: items already complete are not run again.""",
                    help="run on a Dask cluster: its scheduler's address (tcp://host:port), or "
                    "'local' for a local cluster of --workers processes")
     add_common(p, run)
-    add_config_option(p)
+    add_options_option(p)
 
 
 def run(args: argparse.Namespace) -> int:
