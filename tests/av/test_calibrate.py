@@ -162,3 +162,30 @@ def test_search_a_few_yaws_at_a_time_is_the_dense_formula(chunk, monkeypatch):
         expected = _dense_search(ev, 0.0)
         monkeypatch.setattr(C, "_YAW_CHUNK", chunk)
         assert C._search(ev, 0.0) == expected
+
+
+def test_check_is_silent_for_the_right_camera_metres_from_the_array():
+    """A camera 2 m behind the array (as AV16.3's): the search over hypotheses assumes a
+    camera at the array, so the check starts the fit from the given camera instead."""
+    cam = _true_camera(yaw=0.0, position=(-2.0, 0.3, 0.4))
+    chk = check_camera(cam, _recording(cam))
+    assert chk.warnings == (), chk.warnings
+    assert abs(chk.fit.camera.yaw_deg - cam.yaw_deg) < 2.0
+    assert abs(chk.fit.camera.fx / cam.fx - 1.0) < 0.1
+
+
+def test_face_boxes_give_the_evidence_of_head_boxes_at_the_same_depth():
+    cam = _true_camera(yaw=10.0)
+    head = _recording(cam)
+    pts = np.array([[2.0, 0.3, 0.1]])
+    hb = cam.head_box(pts)[0]
+    face = hb.copy()
+    face[3] *= 0.16 / 0.24  # a face box (0.16 m) of the same head, same centre row
+    face[1] = hb[1] + 0.5 * (hb[3] - face[3])
+    dets = MOTData(np.array([1, 1]), np.array([1, 2]), np.vstack([hb, face]), np.ones(2))
+    ev = camera_evidence(dets, [np.array([5.0])], FPS, (640, 480))
+    ev_face = camera_evidence(dets, [np.array([5.0])], FPS, (640, 480), box_height_m=0.16)
+    np.testing.assert_allclose(ev_face.h[1], ev.h[0])  # the face box read as its head
+    assert head.n_directions > 0
+    with pytest.raises(ValueError, match="box_height_m"):
+        camera_evidence(dets, [np.array([5.0])], FPS, (640, 480), box_height_m=0.0)

@@ -316,3 +316,26 @@ def test_image_shows_a_person_only_while_the_camera_confirms_them():
 def test_image_hold_must_not_be_negative():
     with pytest.raises(ValueError, match="image_hold_s"):
         PersonConfig(image_hold_s=-0.1)
+
+
+def test_geometry_reads_a_box_at_the_depth_of_what_it_outlines():
+    """A face box (0.16 m) and the head box (0.24 m) of the same person give one distance."""
+    import numpy as np
+
+    from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
+    from avtrack.io.camera import PinholeCamera
+
+    cam = PinholeCamera.from_fov(60.0, 640, 480, np.zeros(3), 0.0, 0.0)
+    head = CameraGeometry(cam, np.zeros(3), 0.0)
+    face = CameraGeometry(cam, np.zeros(3), 0.0, box_height_m=0.16)
+    z = 2.5
+    hb = np.array([[300.0, 200.0, 40.0, cam.fy * HEAD_HEIGHT_M / z]])
+    fb = np.array([[300.0, 200.0, 40.0, cam.fy * 0.16 / z]])
+    fb[0, 1] += 0.5 * (hb[0, 3] - fb[0, 3])  # same centre
+    np.testing.assert_allclose(head.boxes_to_directions(hb)[2], face.boxes_to_directions(fb)[2])
+    try:
+        CameraGeometry(cam, np.zeros(3), 0.0, box_height_m=-1.0)
+    except ValueError as exc:
+        assert "box_height_m" in str(exc)
+    else:
+        raise AssertionError("a negative box height was accepted")

@@ -188,6 +188,9 @@ def test_track_av_on_a_recording_of_ones_own(main, tmp_path, capsys):
     hidden = {r[2] for r in rows if r[7] == "0" and abs(float(r[3]) + 75.0) < 12.0}
     assert len(hidden) == 1  # the talker never seen
     assert len({t.speaker for t in read_rttm(out / "speech.rttm")}) == 2
+    # no video: the report is drawn over a plain canvas
+    assert "<html" in (out / "index.html").read_text()[:400].lower()
+    assert (out / "tracks.webm").stat().st_size > 0
     out2 = tmp_path / "rec-doa"
     assert main([*args[:-1], str(out2), "--doa", str(scene_dir / "gt" / "doa.csv"), "-q"]) == 0
     assert len({t.speaker for t in read_rttm(out2 / "speech.rttm")}) == 2

@@ -138,6 +138,7 @@ def camera_evidence(
     fps: float,
     image_size: tuple[int, int],
     elevations: list[np.ndarray] | None = None,
+    box_height_m: float = HEAD_HEIGHT_M,
 ) -> CameraEvidence:
     """The pairs (audio direction, box) of a recording.
 
@@ -153,7 +154,12 @@ def camera_evidence(
         Width and height, pixels.
     elevations : list of ndarray, optional
         Elevations matching ``azimuths`` (NaN: not measured).
+    box_height_m : float
+        Height in metres of what the boxes outline (a head by default; a face for a face
+        detector): the evidence keeps the height of the head box of the same depth.
     """
+    if not (math.isfinite(box_height_m) and box_height_m > 0):
+        raise ValueError(f"camera_evidence: box_height_m must be > 0, got {box_height_m!r}")
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"camera_evidence: fps must be > 0, got {fps!r}")
     w, h = (int(s) for s in image_size)
@@ -182,7 +188,7 @@ def camera_evidence(
             cols["el"].append(np.full(nb, el[j]))
             cols["u"].append(b[:, 0] + 0.5 * b[:, 2])
             cols["v"].append(b[:, 1] + 0.5 * b[:, 3])
-            cols["h"].append(b[:, 3])
+            cols["h"].append(b[:, 3] * (HEAD_HEIGHT_M / box_height_m))  # head-box height
             cols["t"].append(np.full(nb, i / fps))
             k += 1
     cat = {key: (np.concatenate(v) if v else np.zeros(0)) for key, v in cols.items()}
@@ -338,6 +344,7 @@ def fit_camera(
     min_matches: int = MIN_MATCHES,
     n_bootstrap: int = 40,
     seed: int = 0,
+    start: PinholeCamera | None = None,
 ) -> CameraFit:
     """Estimate the camera in the array's frame (see the module docstring).
 
@@ -357,6 +364,10 @@ def fit_camera(
         Bootstrap replicas for the uncertainty.
     seed : int
         Seed of the bootstrap.
+    start : PinholeCamera, optional
+        Start the fit from this camera's yaw and focal length (and ``pitch_deg``) instead of
+        the search over hypotheses, which assumes the camera at the array's centre: to check
+        a given camera placed away from the array.
 
     Raises
     ------
@@ -370,7 +381,12 @@ def fit_camera(
         fit_pitch = ev.has_elevation
     if ev.n_pairs == 0:
         raise ValueError(_too_little(0, ev.n_directions, min_matches))
-    yaw0, f0, score = _search(ev, pitch_deg)
+    if start is None:
+        yaw0, f0, score = _search(ev, pitch_deg)
+    else:
+        yaw0, f0 = float(start.yaw_deg), float(start.fx)
+        at = replace(start, position=pos, pitch_deg=pitch_deg)
+        score = round(matched_fraction(ev, at, MATCH_DEG) * ev.n_directions)
     if score < min_matches:
         raise ValueError(_too_little(score, ev.n_directions, min_matches))
     x = np.array([yaw0, math.log(f0)] + ([pitch_deg] if fit_pitch else []))
@@ -533,20 +549,31 @@ def check_camera(
     kw = {"pitch_deg": camera.pitch_deg, **fit_kw}
     fit = _try_fit(ev, position=pos, **kw)
     if dist > ROOM_DISTANCE:
+        # the search assumes a camera at the array: away from it, start from the given one
+        given = _try_fit(ev, position=pos, start=replace(camera, position=pos), **kw)
+        if given is not None:
+            if fit is None:
+                fit = given
+            else:
+                m_given, m_search = _support(ev, given, fit)
+                fit = given if m_given >= m_search else fit
         at_array = _try_fit(ev, position=np.zeros(3), **kw)
-        if at_array is not None and (fit is None or at_array.n_inliers > 1.2 * fit.n_inliers):
-            n_here = 0 if fit is None else fit.n_inliers
-            warnings.append(
-                f"{name} puts the camera {dist:.1f} m from the array, but the audio "
-                f"directions of the people seen fit a camera at the array ({at_array.n_inliers}"
-                f" of {ev.n_directions} match, against {n_here} at {_vec(pos)}): is the camera "
-                f"in the room's frame rather than the array's?")
-            fit = at_array
+        if at_array is not None:
+            tol = _tolerance(at_array, fit)
+            m_array = matched_fraction(ev, at_array.camera, tol)
+            m_here = 0.0 if fit is None else matched_fraction(ev, fit.camera, tol)
+            if m_array > 1.25 * m_here:
+                warnings.append(
+                    f"{name} puts the camera {dist:.1f} m from the array, but the audio "
+                    f"directions of the people seen fit a camera at the array "
+                    f"({100 * m_array:.0f} % of {ev.n_directions} within {tol:.1f} deg of a "
+                    f"person, against {100 * m_here:.0f} % at {_vec(pos)}): is the camera in "
+                    f"the room's frame rather than the array's?")
+                fit = at_array
     mirror = _try_fit(ev.mirrored(), position=pos, **kw)
     if mirror is not None:
         # support of each at the tolerance of the tighter fit
-        tol = float(np.clip(2.5 * min(mirror.residual_deg, np.inf if fit is None
-                                      else fit.residual_deg), 1.5, MATCH_DEG))
+        tol = _tolerance(mirror, fit)
         m_mirror = matched_fraction(ev.mirrored(), mirror.camera, tol)
         m_direct = 0.0 if fit is None else matched_fraction(ev, fit.camera, tol)
         if m_mirror > 1.25 * m_direct:
@@ -595,6 +622,20 @@ def check_camera(
                 f"(+-{fit.pitch_std_deg:.1f}): is pitch_deg's sign or the array's up axis "
                 f"wrong?")
     return CameraCheck(fit, tuple(warnings))
+
+
+def _tolerance(a: CameraFit, b: CameraFit | None) -> float:
+    """The matching tolerance of two rival fits: that of the tighter one (2.5 times its
+    residual, between 1.5 degrees and :data:`MATCH_DEG`), so that each is credited with the
+    directions it explains as precisely as the better one does."""
+    res = a.residual_deg if b is None else min(a.residual_deg, b.residual_deg)
+    return float(np.clip(2.5 * res, 1.5, MATCH_DEG))
+
+
+def _support(ev: CameraEvidence, a: CameraFit, b: CameraFit) -> tuple[float, float]:
+    """Shares of the audio directions that ``a`` and ``b`` match at :func:`_tolerance`."""
+    tol = _tolerance(a, b)
+    return matched_fraction(ev, a.camera, tol), matched_fraction(ev, b.camera, tol)
 
 
 def _vec(p: np.ndarray) -> str:

@@ -61,11 +61,16 @@ class CameraGeometry:
         Array centre in the room frame, metres.
     array_yaw_deg : float
         Rotation of the array's x axis about room z, degrees.
+    box_height_m : float
+        Height in metres of what a box outlines: a head (:data:`HEAD_HEIGHT_M`) by default, a
+        face for a face detector (:data:`avtrack.visual.detect.BOX_HEIGHT_M`); a box's depth
+        is ``f_y box_height_m / h``.
     """
 
     camera: PinholeCamera
     array_position: np.ndarray
     array_yaw_deg: float = 0.0
+    box_height_m: float = HEAD_HEIGHT_M
     #: ``R_z(-ψ)``, room to array axes (set from ``array_yaw_deg``)
     _to_array: np.ndarray = field(init=False, repr=False, compare=False)
 
@@ -87,6 +92,10 @@ class CameraGeometry:
             raise ValueError(f"CameraGeometry.array_yaw_deg must be finite, got {yaw!r}")
         object.__setattr__(self, "array_yaw_deg", yaw)
         object.__setattr__(self, "_to_array", _rz(-yaw))
+        bh = float(self.box_height_m)
+        if not (np.isfinite(bh) and bh > 0):
+            raise ValueError(f"CameraGeometry.box_height_m must be > 0, got {self.box_height_m!r}")
+        object.__setattr__(self, "box_height_m", bh)
 
     @classmethod
     def from_scenario(cls, scenario: dict, camera: PinholeCamera) -> CameraGeometry:
@@ -120,14 +129,16 @@ class CameraGeometry:
 
     # ------------------------------------------------------------------ pixels
     def boxes_to_directions(
-        self, boxes: np.ndarray, head_height: float = HEAD_HEIGHT_M
+        self, boxes: np.ndarray, head_height: float | None = None
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Directions from the array of head boxes ``(N, 4)`` (left, top, width, height).
 
         The box centre is back-projected at the depth :math:`z = f_y H / h` of a head of height
-        ``head_height`` metres. Returns azimuth, elevation (degrees) and distance (metres),
-        each ``(N,)``.
+        ``head_height`` metres (default ``box_height_m``). Returns azimuth, elevation (degrees)
+        and distance (metres), each ``(N,)``.
         """
+        if head_height is None:
+            head_height = self.box_height_m
         b = np.asarray(boxes, dtype=float).reshape(-1, 4)
         cam = self.camera
         u = b[:, 0] + 0.5 * b[:, 2]
@@ -162,7 +173,7 @@ class CameraGeometry:
         ``columns``) on the principal row, for a head ``distance`` metres away."""
         cam = self.camera
         lo, hi = (0.0, float(cam.width)) if columns is None else columns
-        h = cam.fy * HEAD_HEIGHT_M / distance  # a head's box height at that depth
+        h = cam.fy * self.box_height_m / distance  # a box's height at that depth
         boxes = np.array([[lo - 0.5, cam.cy - h / 2, 1.0, h],
                           [hi - 0.5, cam.cy - h / 2, 1.0, h]])
         az, _, _ = self.boxes_to_directions(boxes)

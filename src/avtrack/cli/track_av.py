@@ -93,8 +93,9 @@ OUT_DIR/speech.rttm (who speaks when, speakers P<person id>, and U<n> for speech
 direction where no person is tracked; not with --no-audio),
 OUT_DIR/voices/<id>.wav (--voices: each person's voice; score them with avtrack eval voices),
 OUT_DIR/mapping.npz (--model image, when trained here), OUT_DIR/covariances.png (--model
-image --plot); with --video (a recording of your own, AV16.3), OUT_DIR/index.html and
-OUT_DIR/tracks.webm: the tracks over the video's own frames (--no-report: not written).
+image --plot); for a recording of your own and AV16.3, OUT_DIR/index.html, OUT_DIR/tracks.mp4
+(H.264) and tracks.webm: the tracks over the video's own frames, or over a plain canvas with
+--detections and no video (--no-report: not written).
 
 A recording of your own (no scene directory): a video, the microphone array's WAV (channel k
 is microphone k of --array) and a camera file, CAMERA.yaml, in the array's frame (metres,
@@ -230,8 +231,9 @@ def _add_tracking_options(p: argparse.ArgumentParser) -> None:
     )
     p.add_argument(
         "--no-report", action="store_true",
-        help="with --video: do not write OUT_DIR/index.html and OUT_DIR/tracks.webm (the "
-        "tracks drawn over the video's own frames, the persons' directions, who speaks when)",
+        help="a recording of your own: do not write OUT_DIR/index.html, tracks.mp4 and "
+        "tracks.webm (the tracks drawn over the video's own frames or a plain canvas, the "
+        "persons' directions, who speaks when)",
     )
     p.add_argument(
         "--fov-fraction",
@@ -462,11 +464,14 @@ def run_recording(args: argparse.Namespace) -> int:
                   file=sys.stderr)
     write_outputs(args.output, res)
     _camera_outputs(args, res)
-    if res.video is not None and not args.no_report:
+    if not args.no_report:  # over the video's frames, or a plain canvas without a video
+        video = res.video
+        frames = None if video is None else iter_frames(video.path, video)
+        size = (res.camera.width, res.camera.height) if video is None else video.image_size
+        title = video.path.name if video is not None else Path(args.detections).name
         with progress.activity(f"drawing the tracks over {res.n_frames} frames", args.quiet):
             write_recording_report(
-                args.output, f"avtrack: {res.video.path.name}", res.tracks,
-                iter_frames(res.video.path, res.video), res.video.image_size, res.fps,
+                args.output, f"avtrack: {title}", res.tracks, frames, size, res.fps,
                 res.n_frames, speaking=res.speaking, persons=res.persons,
                 speech=res.speech or [])
     if not args.quiet:

@@ -93,9 +93,9 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                    "module:attribute (an object or factory with detect(frame) -> (boxes ltwh "
                    "(M, 4), scores (M,)))")
     p.add_argument("--report", type=Path, metavar="DIR",
-                   help="with --video: write DIR/index.html and DIR/tracks.webm, the tracks "
-                   "drawn over the video's own frames (with the scores and the ground truth "
-                   "outlined when the sequence folder has gt/gt.txt)")
+                   help="with --video: write DIR/index.html, DIR/tracks.mp4 and tracks.webm, the "
+                   "tracks drawn over the video's own frames (with the scores and the ground "
+                   "truth outlined when the sequence folder has gt/gt.txt)")
     add_algorithm_config_option(p, "OVBTConfig", "; --min-score and --birth-min-score win over "
                                 "the file")
     p.add_argument("--min-score", type=float, metavar="S",

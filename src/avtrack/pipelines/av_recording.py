@@ -21,7 +21,7 @@ import numpy as np
 from avtrack.audio.arrays import MicArray
 from avtrack.audio.recording import BLOCK_SECONDS, FS, ArrayRecording
 from avtrack.av.calibrate import CameraCheck, CameraFit, camera_evidence, check_camera, fit_camera
-from avtrack.av.geometry import CameraGeometry
+from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
 from avtrack.av.persons import PersonConfig
 from avtrack.av.persons_scene import (
     PERSONS_LOCALIZER,
@@ -53,7 +53,7 @@ from avtrack.pipelines.mot import (
     load_appearance,
     no_stage,
 )
-from avtrack.visual.detect import DEFAULT_FACE_DETECTOR
+from avtrack.visual.detect import BOX_HEIGHT_M, DEFAULT_FACE_DETECTOR
 from avtrack.visual.histograms import detection_histograms
 
 
@@ -282,8 +282,9 @@ def track_own_recording(
     t0 = time.perf_counter()
     with stage(f"tracking {n_frames} frames"):
         try:
+            geometry = CameraGeometry(camera, np.zeros(3), 0.0, box_height(inputs))
             res = track_persons(
-                dets, appearance, peaks, CameraGeometry(camera, np.zeros(3), 0.0), fps,
+                dets, appearance, peaks, geometry, fps,
                 n_frames, visual_config=vcfg, config=config,
                 azimuth_span_deg=360.0 if audio is None else audio.span_deg,
                 heat=None if audio is None else audio.heat,
@@ -357,6 +358,15 @@ def _frame_count(recording: ArrayRecording | None, video: VideoInfo | None, fps:
     return 0
 
 
+def box_height(inputs: RecordingInputs) -> float:
+    """Height in metres of what the boxes outline: the detector's
+    (:data:`~avtrack.visual.detect.BOX_HEIGHT_M`) when it runs on the video, else a head's
+    (detections from a file are head boxes)."""
+    if inputs.detections is None and inputs.video is not None:
+        return BOX_HEIGHT_M.get(inputs.detector or DEFAULT_FACE_DETECTOR, HEAD_HEIGHT_M)
+    return HEAD_HEIGHT_M
+
+
 def _visual_inputs(
     inputs: RecordingInputs, video: VideoInfo | None, n_frames: int, stage: Stage
 ) -> tuple[MOTData, int, np.ndarray | None]:
@@ -395,7 +405,7 @@ def _calibrate(
     elevations = None
     if inputs.doa is not None:
         peaks, elevations = directions_per_frame(read_doa_csv(inputs.doa), fps, n_frames)
-    ev = camera_evidence(dets, peaks, fps, image_size, elevations)
+    ev = camera_evidence(dets, peaks, fps, image_size, elevations, box_height(inputs))
     if camera is None:
         try:
             with stage("estimating the camera from the people seen talking"):
