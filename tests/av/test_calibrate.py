@@ -126,14 +126,10 @@ def _dense_search(ev, pitch_deg):
     """``_search`` written over whole (pairs x yaws) arrays."""
     import math
 
-    from avtrack.av.calibrate import MATCH_DEG, _starts, predicted_directions
+    from avtrack.av.calibrate import MATCH_DEG, _chance, predicted_directions
     from avtrack.io.doa import wrap_azimuth
 
-    starts = _starts(ev.direction)
-    first = ev.azimuth_deg[starts]
-    hist = np.bincount(np.floor(first + 180.0).astype(np.int64) % 360, minlength=360)
-    win = round(MATCH_DEG)
-    near = sum(np.roll(hist, k) for k in range(-win, win + 1)) / max(first.shape[0], 1)
+    starts, near = _chance(ev)
     yaws = np.arange(-180.0, 180.0, 1.0)
     best, best_score = (0.0, 1.0, -1), -np.inf
     for hfov in np.arange(20.0, 151.0, 5.0):

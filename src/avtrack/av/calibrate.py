@@ -230,6 +230,17 @@ def _nearest(ev: CameraEvidence, resid: np.ndarray) -> np.ndarray:
     return order[starts]
 
 
+def _chance(ev: CameraEvidence) -> tuple[np.ndarray, np.ndarray]:
+    """The first pair of each audio direction ``(N,)`` and the share of the audio directions
+    within :data:`MATCH_DEG` of each whole degree of azimuth ``(360,)`` (from -180)."""
+    starts = _starts(ev.direction)
+    first = ev.azimuth_deg[starts]
+    hist = np.bincount(np.floor(first + 180.0).astype(np.int64) % 360, minlength=360)
+    win = round(MATCH_DEG)
+    near = sum(np.roll(hist, k) for k in range(-win, win + 1)) / max(first.shape[0], 1)
+    return starts, near
+
+
 def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
     """Yaw and focal length of the hypothesis whose matches most exceed chance, and its number
     of matched audio directions (camera at the array's centre).
@@ -238,12 +249,7 @@ def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
     chance of matching is the share of all the recording's audio directions within
     :data:`MATCH_DEG` of the frame's predicted boxes: without it, a camera of a tiny field of
     view that puts every box on the direction heard most would win."""
-    starts = _starts(ev.direction)
-    first = ev.azimuth_deg[starts]
-    # share of the audio directions within MATCH_DEG of each whole degree
-    hist = np.bincount(np.floor(first + 180.0).astype(np.int64) % 360, minlength=360)
-    win = round(MATCH_DEG)
-    near = sum(np.roll(hist, k) for k in range(-win, win + 1)) / max(first.shape[0], 1)
+    starts, near = _chance(ev)
     yaws = np.arange(-180.0, 180.0, 1.0)
     best = (0.0, 1.0, -1)
     best_score = -np.inf
@@ -549,41 +555,20 @@ def check_camera(
     kw = {"pitch_deg": camera.pitch_deg, **fit_kw}
     fit = _try_fit(ev, position=pos, **kw)
     if dist > ROOM_DISTANCE:
-        # the search assumes a camera at the array: away from it, start from the given one
-        given = _try_fit(ev, position=pos, start=replace(camera, position=pos), **kw)
-        if given is not None:
-            if fit is None:
-                fit = given
-            else:
-                m_given, m_search = _support(ev, given, fit)
-                fit = given if m_given >= m_search else fit
-        at_array = _try_fit(ev, position=np.zeros(3), **kw)
-        if at_array is not None:
-            tol = _tolerance(at_array, fit)
-            m_array = matched_fraction(ev, at_array.camera, tol)
-            m_here = 0.0 if fit is None else matched_fraction(ev, fit.camera, tol)
-            if m_array > 1.25 * m_here:
-                warnings.append(
-                    f"{name} puts the camera {dist:.1f} m from the array, but the audio "
-                    f"directions of the people seen fit a camera at the array "
-                    f"({100 * m_array:.0f} % of {ev.n_directions} within {tol:.1f} deg of a "
-                    f"person, against {100 * m_here:.0f} % at {_vec(pos)}): is the camera in "
-                    f"the room's frame rather than the array's?")
-                fit = at_array
-    mirror = _try_fit(ev.mirrored(), position=pos, **kw)
-    if mirror is not None:
-        # support of each at the tolerance of the tighter fit
-        tol = _tolerance(mirror, fit)
-        m_mirror = matched_fraction(ev.mirrored(), mirror.camera, tol)
-        m_direct = 0.0 if fit is None else matched_fraction(ev, fit.camera, tol)
-        if m_mirror > 1.25 * m_direct:
+        fit, room = _far_camera(camera, ev, pos, fit, kw)
+        if room is not None:
             warnings.append(
-                f"the audio directions of the people seen match the image only mirrored "
-                f"({100 * m_mirror:.0f} % of {ev.n_directions} audio directions within "
-                f"{tol:.1f} deg of a person mirrored, {100 * m_direct:.0f} % as recorded): "
-                f"are microphone channels swapped (channel k not microphone k of the array), "
-                f"or the array file mirrored?")
-            return CameraCheck(mirror, tuple(warnings))
+                f"{name} puts the camera {dist:.1f} m from the array, but the audio "
+                f"directions of the people seen fit a camera at the array ({room}, at "
+                f"{_vec(pos)}): is the camera in the room's frame rather than the array's?")
+    mirror = _try_fit(ev.mirrored(), position=pos, **kw)
+    beaten = None if mirror is None else _beaten(ev.mirrored(), mirror, ev, fit)
+    if beaten is not None:
+        warnings.append(
+            f"the audio directions of the people seen match the image only mirrored "
+            f"({beaten}; mirrored against as recorded): are microphone channels swapped "
+            f"(channel k not microphone k of the array), or the array file mirrored?")
+        return CameraCheck(mirror, tuple(warnings))
     if fit is None:
         try:
             fit = fit_camera(ev, position=pos, **kw)
@@ -622,6 +607,41 @@ def check_camera(
                 f"(+-{fit.pitch_std_deg:.1f}): is pitch_deg's sign or the array's up axis "
                 f"wrong?")
     return CameraCheck(fit, tuple(warnings))
+
+
+def _beaten(
+    ev_a: CameraEvidence, a: CameraFit, ev_b: CameraEvidence, b: CameraFit | None
+) -> str | None:
+    """When fit ``a`` (on ``ev_a``) matches more than 1.25 times the audio directions that
+    ``b`` (on ``ev_b``) does, each at the tighter fit's :func:`_tolerance`: the evidence in
+    words; else None."""
+    tol = _tolerance(a, b)
+    m_a = matched_fraction(ev_a, a.camera, tol)
+    m_b = 0.0 if b is None else matched_fraction(ev_b, b.camera, tol)
+    if m_a <= 1.25 * m_b:
+        return None
+    return (f"{100 * m_a:.0f} % of {ev_a.n_directions} audio directions within {tol:.1f} deg "
+            f"of a person, against {100 * m_b:.0f} %")
+
+
+def _far_camera(
+    camera: PinholeCamera, ev: CameraEvidence, pos: np.ndarray, fit: CameraFit | None,
+    kw: dict,
+) -> tuple[CameraFit | None, str | None]:
+    """A given camera metres from the array: the fit started from it (the search over
+    hypotheses assumes a camera at the array) where it matches at least as many directions
+    as the searched one, then against a camera at the array. Returns the fit to compare the
+    camera with, and the evidence (None: none) that the camera is in the room's frame."""
+    given = _try_fit(ev, position=pos, start=replace(camera, position=pos), **kw)
+    if given is not None:
+        if fit is None:
+            fit = given
+        else:
+            m_given, m_search = _support(ev, given, fit)
+            fit = given if m_given >= m_search else fit
+    at_array = _try_fit(ev, position=np.zeros(3), **kw)
+    beaten = None if at_array is None else _beaten(ev, at_array, ev, fit)
+    return (at_array, beaten) if beaten is not None else (fit, None)
 
 
 def _tolerance(a: CameraFit, b: CameraFit | None) -> float:

@@ -51,12 +51,9 @@ class AVRun:
 
     Attributes
     ----------
-    tracks : MOTData
-        Head boxes of the persons seen in the image (ids = person ids).
-    speaking : ndarray (len(tracks),) bool
-        Whether the person of each row of ``tracks`` speaks at that frame.
-    persons : PersonsTable
-        Every tracked person every frame.
+    tracks, speaking, persons
+        As in :class:`avtrack.av.persons_scene.PersonsResult`: the persons' boxes in the image,
+        whether each box's person speaks, every tracked person every frame.
     speech : list of RTTMSegment or None
         Speaker turns; None without audio (no ``speech.rttm``).
     n_frames : int
