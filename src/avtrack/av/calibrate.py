@@ -615,9 +615,7 @@ def _beaten(
     """When fit ``a`` (on ``ev_a``) matches more than 1.25 times the audio directions that
     ``b`` (on ``ev_b``) does, each at the tighter fit's :func:`_tolerance`: the evidence in
     words; else None."""
-    tol = _tolerance(a, b)
-    m_a = matched_fraction(ev_a, a.camera, tol)
-    m_b = 0.0 if b is None else matched_fraction(ev_b, b.camera, tol)
+    tol, m_a, m_b = _shares(ev_a, a, ev_b, b)
     if m_a <= 1.25 * m_b:
         return None
     return (f"{100 * m_a:.0f} % of {ev_a.n_directions} audio directions within {tol:.1f} deg "
@@ -637,7 +635,7 @@ def _far_camera(
         if fit is None:
             fit = given
         else:
-            m_given, m_search = _support(ev, given, fit)
+            _, m_given, m_search = _shares(ev, given, ev, fit)
             fit = given if m_given >= m_search else fit
     at_array = _try_fit(ev, position=np.zeros(3), **kw)
     beaten = None if at_array is None else _beaten(ev, at_array, ev, fit)
@@ -652,10 +650,14 @@ def _tolerance(a: CameraFit, b: CameraFit | None) -> float:
     return float(np.clip(2.5 * res, 1.5, MATCH_DEG))
 
 
-def _support(ev: CameraEvidence, a: CameraFit, b: CameraFit) -> tuple[float, float]:
-    """Shares of the audio directions that ``a`` and ``b`` match at :func:`_tolerance`."""
+def _shares(
+    ev_a: CameraEvidence, a: CameraFit, ev_b: CameraEvidence, b: CameraFit | None
+) -> tuple[float, float, float]:
+    """The rivals' :func:`_tolerance` and the shares of the audio directions that ``a`` (on
+    ``ev_a``) and ``b`` (on ``ev_b``; 0 without it) match at it."""
     tol = _tolerance(a, b)
-    return matched_fraction(ev, a.camera, tol), matched_fraction(ev, b.camera, tol)
+    m_b = 0.0 if b is None else matched_fraction(ev_b, b.camera, tol)
+    return tol, matched_fraction(ev_a, a.camera, tol), m_b
 
 
 def _vec(p: np.ndarray) -> str:
