@@ -11,6 +11,7 @@ when ``--eight`` is given.
     python benchmarks/bench_memory.py --minutes 1 10
     python benchmarks/bench_memory.py --minutes 1 10 --commands track-av
     python benchmarks/bench_memory.py --minutes 1 20 --eight
+    python benchmarks/bench_memory.py --minutes 1 120 --commands track-audio --eight-only
 
 A length's peak should be close to the shortest one's: the commands read the audio in blocks
 and write their rows as they are produced.
@@ -140,11 +141,14 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--commands", nargs="+", default=["localize", "track-audio", "track-av"],
                    choices=["localize", "track-audio", "track-av"])
     p.add_argument("--eight", action="store_true", help="also an 8-microphone recording")
+    p.add_argument("--eight-only", action="store_true",
+                   help="only the 8-microphone recording (e.g. --minutes 1 120 --commands "
+                        "track-audio --eight-only)")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
-        sets = [("ReSpeaker 4-mic (real, repeated)", *real_sources())]
-        if args.eight:
+        sets = [] if args.eight_only else [("ReSpeaker 4-mic (real, repeated)", *real_sources())]
+        if args.eight or args.eight_only:
             sets.append(("AV16.3 8-mic circle (simulated, repeated)", *eight_sources()))
         print("| recording | command | minutes | peak RSS (MB) | vs shortest | wall (s) | RF |")
         print("|---|---|---:|---:|---:|---:|---:|")

@@ -68,6 +68,7 @@ from avtrack.audio.recording import read_array_audio  # noqa: E402
 from avtrack.doa.base import (  # noqa: E402
     DOASequence,
     circular_peaks,
+    gate_maps,
     heatmap_sequence,
     make_tracker,
     map_reading,
@@ -131,10 +132,18 @@ def scene_dir(workdir: Path, kind: str, seed: int, duration: float) -> Path:
 def heatmaps(d: Path, method: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
     """``(weights (T, D), time_s (T,), frames (T,), seconds of localization, duration)``,
     cached in the scene directory."""
+    z = _heat_cache(d, method)
+    return z["w"], z["t"], z["f"], float(z["elapsed"]), float(z["duration"])
+
+
+def _heat_cache(d: Path, method: str):
+    """The cached localizer run of a scene (``w``, ``t``, ``f``, ``elapsed``, ``duration`` and
+    ``evidence``, which frames updated the map), computed once."""
     cache = d / f"heat-{method}.npz"
     if cache.is_file():
         z = np.load(cache)
-        return z["w"], z["t"], z["f"], float(z["elapsed"]), float(z["duration"])
+        if "evidence" in z:
+            return z
     array = load_array(d / "array.json")
     x = read_array_audio(d / "audio.wav", array, quiet=True)
     loc = make_localizer(method, array, DirectionGrid.azimuths())
@@ -142,8 +151,9 @@ def heatmaps(d: Path, method: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     h = loc.run(x)
     elapsed = time.process_time() - t0
     duration = x.shape[1] / loc.fs
-    np.savez(cache, w=h.weights, t=h.time_s, f=h.frames, elapsed=elapsed, duration=duration)
-    return h.weights, h.time_s, h.frames, elapsed, duration
+    np.savez(cache, w=h.weights, t=h.time_s, f=h.frames, elapsed=elapsed, duration=duration,
+             evidence=loc.evidence(h.n_observations))
+    return np.load(cache)
 
 
 def peak_rows(w: np.ndarray, t: np.ndarray, f: np.ndarray, grid: np.ndarray) -> DOATable:
@@ -248,6 +258,8 @@ def tracked(
             trk = GMPHDPeer(frame_period_s=STEP * HOP_S)
         else:
             reading = map_reading(tracker, method)
+            w = gate_maps(w, _heat_cache(d, method)["evidence"], reading.evidence_hold_s,
+                          HOP_S)  # as DOAStream reads the maps
             seq = heatmap_sequence(w, grid, f, t, STEP, reading.observations,
                                    uniform_floor=reading.uniform_floor)  # fmt: skip
             config = reading.config

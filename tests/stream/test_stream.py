@@ -11,6 +11,8 @@ import pytest
 
 from avtrack.doa.base import (
     PEAK_FLOOR,
+    EvidenceGate,
+    gate_maps,
     heatmap_sequence,
     make_tracker,
     map_reading,
@@ -49,6 +51,8 @@ def batch_doa_tracks(array, x, tracker: str, step: int = 4, method: str = "dprtf
     heat = loc.run(x)
     reading = map_reading(tracker, method)
     profile, _ = azimuth_profile(heat.weights, loc.grid, loc.profile_reduce)
+    profile = gate_maps(profile, loc.evidence(heat.n_observations), reading.evidence_hold_s,
+                        loc.stft_config.frame_period_s)
     seq = heatmap_sequence(
         profile, loc.grid.azimuth_values, heat.frames, heat.time_s, step,
         reading.observations, PEAK_FLOOR, reading.uniform_floor,
@@ -227,3 +231,29 @@ def test_av_stream_rejects_bad_parameters():
     with pytest.raises(ValueError, match=r"boxes must have shape \(M, 4\), got \(2, 6\)"):
         stream.push_detections(np.ones((2, 6)))
     assert stream.push_detections([]) == []  # an empty frame is fine
+
+
+@pytest.mark.parametrize("tracker", ["vonmises", "gauss"])
+def test_tracks_fall_silent_soon_after_the_localizer_hears_nobody(tracker):
+    """After speech ends, the map keeps its peaks while it relaxes to uniform; the trackers
+    read it only ``evidence_hold_s`` past the latest frame with features, so no track stays
+    active long after (read ungated, some track does)."""
+    array, x = meeting()
+    rng = np.random.default_rng(0)
+    quiet = 1e-3 * np.std(x) * rng.standard_normal((x.shape[0], 2 * 16000))
+    y = np.concatenate([x, quiet], axis=1)
+    loc = make_localizer("dprtf-eg-fast", array)
+    heat = loc.run(y)
+    ev = loc.evidence(heat.n_observations)
+    last_evidence = int(np.flatnonzero(ev)[-1])
+    hold = EvidenceGate.for_hold(map_reading(tracker, "dprtf-eg-fast").evidence_hold_s,
+                                 loc.stft_config.frame_period_s).hold_frames
+
+    def last_active(**kw) -> int:
+        frames = [f for f in DOAStream(array, tracker=tracker, **kw).push(y)
+                  if np.any(f.tracks.active)]
+        return frames[-1].frame if frames else -1
+
+    # the hold, then the tracker's activity window (eq. 5.43: 3 frames of 4 hops) and one block
+    assert last_active() <= last_evidence + hold + 4 * 4
+    assert last_active(evidence_hold_s=None) > last_evidence + hold + 4 * 4

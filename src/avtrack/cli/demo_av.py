@@ -120,12 +120,14 @@ def _localize(array, audio: np.ndarray, inputs, quiet: bool):
 def _track_doa(loc, heat):
     """The frame-wise DOA estimates of the heat maps and the von Mises tracks of the talkers."""
     from avtrack.av.persons_scene import PERSONS_LOCALIZER
-    from avtrack.doa.base import heatmap_sequence, make_tracker, map_reading
+    from avtrack.doa.base import gate_maps, heatmap_sequence, make_tracker, map_reading
     from avtrack.localize import peak_table
 
     doa = peak_table(heat, loc.grid, loc.default_threshold)
     reading = map_reading("vonmises", PERSONS_LOCALIZER)  # that localizer's maps
-    seq = heatmap_sequence(heat.weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, 4,
+    weights = gate_maps(heat.weights, loc.evidence(heat.n_observations),
+                        reading.evidence_hold_s, loc.stft_config.frame_period_s)
+    seq = heatmap_sequence(weights, loc.grid.azimuth_deg, heat.frames, heat.time_s, 4,
                            reading.observations, uniform_floor=reading.uniform_floor)  # fmt: skip
     doa_tracks = make_tracker(
         "vonmises", reading.config, frame_period_s=4 * loc.stft_config.frame_period_s

@@ -154,6 +154,12 @@ class Localizer(ABC):
     def fs(self) -> int:
         return self.stft_config.fs
 
+    def evidence(self, n_observations: np.ndarray) -> np.ndarray:
+        """Which frames brought new evidence to their heat map ``(T,)`` bool, from
+        :attr:`HeatMaps.n_observations`: every frame here (a memoryless map); localizers whose
+        map keeps a memory of earlier frames say which frames updated it."""
+        return np.ones(np.shape(n_observations), dtype=bool)
+
     def reset(self) -> None:
         """Start a new signal: clears the STFT buffer and the algorithm's state."""
         self._stft.reset()

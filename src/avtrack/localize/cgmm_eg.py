@@ -530,6 +530,12 @@ class CGMMLocalizer(Localizer):
             self.n_channels, self.stft_config.n_freqs, freqs, self.config.dprtf
         )
 
+    def evidence(self, n_observations: np.ndarray) -> np.ndarray:
+        """Frames with at least ``min_features`` features (and one): the frames whose features
+        updated the weights; in the others the map only relaxes to uniform (``silence_rate``)."""
+        n = np.asarray(n_observations)
+        return n >= max(int(self.config.min_features), 1)
+
     def _reset_state(self) -> None:
         self._estimator.reset()
         self.weights = np.full(self.grid.size, 1.0 / self.grid.size)  #: current w_t (D,)

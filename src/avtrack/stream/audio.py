@@ -8,7 +8,9 @@ as observations, and one tracker step (Gaussian §5.4 or von Mises §5.6).
 State is bounded: the STFT keeps less than one window of samples, the localizer and the
 tracker keep fixed-size recursive statistics, and fewer than ``step`` heat maps wait for their
 tracker frame. Fed a signal in blocks of any sizes, :class:`DOAStream` gives exactly the tracks
-of ``tracker.run(heatmap_sequence(localizer.run(signal).weights, ...))``.
+of ``tracker.run(heatmap_sequence(gate.apply(localizer.run(signal).weights, ...), ...))``
+(:class:`~avtrack.doa.base.EvidenceGate`: maps long after the localizer's latest evidence are
+no observation).
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from avtrack.doa.base import (
     OBSERVATION_MODES,
     PEAK_FLOOR,
     TRACKERS,
+    EvidenceGate,
     TrackFrame,
     heatmap_sequence,
     make_tracker,
@@ -79,6 +82,10 @@ class DOAStream:
     floor : float
         With ``"peaks"`` observations, drop peaks below this weight (default
         :data:`~avtrack.doa.base.PEAK_FLOOR`).
+    evidence_hold_s : float or None, optional
+        Seconds after the localizer's latest frame with evidence during which its maps are
+        observations; later maps are read as none (:class:`~avtrack.doa.base.EvidenceGate`).
+        None: every map. Default: ``method``'s own (:func:`~avtrack.doa.base.map_reading`).
 
     Examples
     --------
@@ -100,6 +107,7 @@ class DOAStream:
         method_config: Any = None,
         tracker_config: Any = None,
         floor: float = PEAK_FLOOR,
+        evidence_hold_s: float | str | None = "default",
     ) -> None:
         if isinstance(step, bool) or not isinstance(step, int | np.integer) or step < 1:
             raise ValueError(f"DOAStream: step must be a positive integer, got {step!r}")
@@ -126,6 +134,11 @@ class DOAStream:
         self.uniform_floor = reading.uniform_floor
         hop = self.localizer.stft_config.frame_period_s
         self.tracker = make_tracker(tracker, tracker_config, frame_period_s=self.step * hop)
+        if evidence_hold_s == "default":
+            evidence_hold_s = reading.evidence_hold_s
+        #: None, or the gate of the maps the tracker reads
+        self.gate = None if evidence_hold_s is None else EvidenceGate.for_hold(
+            float(evidence_hold_s), hop)  # fmt: skip
         self._azimuths = np.array(self.grid.azimuth_values, dtype=float)
         self._azimuths.setflags(write=False)
         self.reset()
@@ -150,6 +163,8 @@ class DOAStream:
         """Start a new stream."""
         self.localizer.reset()
         self.tracker.reset()
+        if self.gate is not None:
+            self.gate.reset()
         # maps over azimuth waiting for their block
         self._held = np.zeros((0, self.grid.n_azimuths))
         self._held_frames = np.zeros(0, dtype=np.int64)
@@ -174,6 +189,8 @@ class DOAStream:
         if len(heat) == 0:
             return []
         w, _ = azimuth_profile(heat.weights, self.grid, self.localizer.profile_reduce)
+        if self.gate is not None:
+            w = self.gate.apply(w, self.localizer.evidence(heat.n_observations))
         w = np.concatenate([self._held, w]) if len(self._held) else w
         frames = np.concatenate([self._held_frames, heat.frames])
         times = np.concatenate([self._held_times, heat.time_s])
