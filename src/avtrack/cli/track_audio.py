@@ -75,8 +75,10 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="""\
 Track several speakers from a microphone-array recording (thesis ch. 5): frame-wise
 localization every 8 ms, then a variational-EM tracker every 32 ms that keeps the
-identities through speech pauses and says who is speaking. Azimuths are in the
-array frame, counter-clockwise from x, in (-180, 180].""",
+identities through speech pauses and says who is speaking. On dprtf-eg-fast maps (the
+default) the tracker reads a map only up to 0.2 s after the localizer's latest frame
+with speech features, so tracks fall silent soon after talking stops. Azimuths are in
+the array frame, counter-clockwise from x, in (-180, 180].""",
         epilog=EXAMPLES,
     )
     p.add_argument(
