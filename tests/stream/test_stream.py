@@ -257,3 +257,10 @@ def test_tracks_fall_silent_soon_after_the_localizer_hears_nobody(tracker):
     # the hold, then the tracker's activity window (eq. 5.43: 3 frames of 4 hops) and one block
     assert last_active() <= last_evidence + hold + 4 * 4
     assert last_active(evidence_hold_s=None) > last_evidence + hold + 4 * 4
+
+
+def test_doa_stream_refuses_a_hold_that_is_not_seconds():
+    with pytest.raises(ValueError, match="evidence_hold_s"):
+        DOAStream(meeting()[0], evidence_hold_s="long")
+    with pytest.raises(ValueError, match="hold_s"):
+        DOAStream(meeting()[0], evidence_hold_s=-0.1)

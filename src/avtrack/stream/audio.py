@@ -136,6 +136,9 @@ class DOAStream:
         self.tracker = make_tracker(tracker, tracker_config, frame_period_s=self.step * hop)
         if evidence_hold_s == "default":
             evidence_hold_s = reading.evidence_hold_s
+        elif evidence_hold_s is not None and not isinstance(evidence_hold_s, int | float):
+            raise ValueError(f"DOAStream: evidence_hold_s must be seconds, None or 'default', "
+                             f"got {evidence_hold_s!r}")
         #: None, or the gate of the maps the tracker reads
         self.gate = None if evidence_hold_s is None else EvidenceGate.for_hold(
             float(evidence_hold_s), hop)  # fmt: skip
