@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from avtrack.io.mot import MOTData
 from avtrack.visual.ovbt import REFERENCE_FPS, OVBTConfig, OVBTracker, track_mot
-from avtrack.visual.scores import MIN_SCORES, ScoreSplit, otsu_threshold
+from avtrack.visual.scores import BINS, MIN_SCORES, MIN_SEPARATION, ScoreSplit, otsu_threshold
 from tests.visual.synthetic import crossing_scene
 
 
@@ -144,3 +144,39 @@ def test_reference_frame_rate_is_the_default():
     a = track_mot(dets, image_size=(640, 480))
     b = track_mot(dets, image_size=(640, 480), fps=REFERENCE_FPS)
     assert np.array_equal(a.ids, b.ids) and np.array_equal(a.boxes, b.boxes)
+
+
+def _otsu_by_histogram(x: np.ndarray) -> float | None:
+    """Otsu's threshold from ``np.histogram`` and boolean masks, as written in the textbook."""
+    counts, edges = np.histogram(x, bins=BINS, range=(x.min(), x.max()))
+    centres = 0.5 * (edges[:-1] + edges[1:])
+    w0 = np.cumsum(counts)[:-1].astype(float)
+    s0 = np.cumsum(counts * centres)[:-1]
+    w1, total = x.size - w0, float((counts * centres).sum())
+    between = w0 * w1 * (s0 / w0 - (total - s0) / w1) ** 2
+    t = float(edges[1:-1][int(np.argmax(between))])
+    lower, upper = x[x < t], x[x >= t]
+    spread = np.sqrt(0.5 * (lower.var() + upper.var()))
+    return t if abs(upper.mean() - lower.mean()) >= MIN_SEPARATION * spread else None
+
+
+def test_otsu_on_sorted_scores_equals_the_histogram_computation():
+    rng = np.random.default_rng(0)
+    for k in range(300):
+        n = int(rng.integers(60, 600))
+        x = (np.r_[rng.normal(0.3, 0.1, n // 3), rng.normal(0.9, 0.05, n)] if k % 3 else
+             np.round(rng.random(n), 2))
+        assert otsu_threshold(x) == _otsu_by_histogram(x)
+
+
+def test_running_split_is_the_split_of_the_scores_so_far():
+    rng = np.random.default_rng(2)
+    split, seen = ScoreSplit(), []
+    for _ in range(60):  # 420 scores: the split is due every frame
+        frame = np.r_[rng.normal(0.9, 0.04, 5), rng.normal(0.4, 0.1, 2)]
+        seen.append(frame)
+        got = split.update(frame)
+        all_scores = np.concatenate(seen)
+        t = otsu_threshold(all_scores) if all_scores.size >= MIN_SCORES else None
+        assert split.threshold == t
+        assert got.tolist() == (frame >= t if t is not None else np.ones(7, bool)).tolist()

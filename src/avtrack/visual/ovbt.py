@@ -319,7 +319,7 @@ class OVBTracker(ManagedTargets):
             unassigned = np.arange(len(obs))
         # --- birth (eq. 3.30) ----------------------------------------------------------------
         if obs.scores is not None:  # weak detections only update targets
-            unassigned = unassigned[self._can_birth(obs.scores)[unassigned]]
+            unassigned = self._may_start(obs.scores, unassigned)
         self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
         # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far,
         # so that the people present from the first frame are not held back.
@@ -333,12 +333,23 @@ class OVBTracker(ManagedTargets):
 
     def _can_birth(self, scores: np.ndarray) -> np.ndarray:
         """``(M,)``: which of a frame's detections may start a target (see OVBTConfig)."""
+        can = np.zeros(scores.shape[0], dtype=bool)
+        can[self._may_start(scores, np.arange(scores.shape[0]))] = True
+        return can
+
+    def _may_start(self, scores: np.ndarray, unassigned: np.ndarray) -> np.ndarray:
+        """Which of the ``unassigned (U,)`` detections of a frame with ``scores (M,)`` may start
+        a target (see OVBTConfig). The score split takes every frame's scores, and is computed
+        only for a frame with unassigned detections."""
         cfg = self.config
         if cfg.birth_min_score is not None:
-            return scores >= cfg.birth_min_score
-        if cfg.birth_score_split:
-            return self._score_split.update(scores)
-        return np.ones(scores.shape[0], dtype=bool)
+            return unassigned[scores[unassigned] >= cfg.birth_min_score]
+        if not cfg.birth_score_split:
+            return unassigned
+        self._score_split.add(scores)
+        if not unassigned.shape[0]:
+            return unassigned
+        return unassigned[self._score_split.may_start(scores[unassigned])]
 
     def _per_target(self) -> tuple[PerTarget, ...]:
         """Visibility posterior, frames invisible in a row, visibility evidence window."""

@@ -40,55 +40,108 @@ def otsu_threshold(scores: np.ndarray, bins: int = BINS) -> float | None:
     by them: splitting it would only hold back the births of half its true detections.
     """
     x = np.asarray(scores, dtype=float).ravel()
-    x = x[np.isfinite(x)]
-    if x.size < 2:
+    return otsu_threshold_sorted(np.sort(x[np.isfinite(x)]), bins)
+
+
+def otsu_threshold_sorted(x: np.ndarray, bins: int = BINS) -> float | None:
+    """:func:`otsu_threshold` of finite scores ``x (N,)`` sorted in ascending order.
+
+    On sorted scores every step is a binary search or a slice: the histogram of
+    ``np.histogram(x, bins, (x[0], x[-1]))`` (bin ``k`` holds ``edges[k] <= x < edges[k + 1]``,
+    the last bin its right edge too) is the difference of the edges' insertion points.
+    """
+    n_x = x.shape[0]
+    if n_x < 2:
         return None
-    lo, hi = float(x.min()), float(x.max())
+    lo, hi = float(x[0]), float(x[-1])
     if not hi - lo > 1e-9 * max(1.0, abs(hi)):
         return None
-    counts, edges = np.histogram(x, bins=bins, range=(lo, hi))
+    # np.histogram's edges for this range: np.linspace(lo, hi, bins + 1), term by term
+    edges = np.arange(bins + 1, dtype=float) * ((hi - lo) / bins) + lo
+    edges[-1] = hi
+    cuts = np.empty(bins + 1, dtype=np.int64)
+    cuts[0], cuts[-1] = 0, n_x
+    cuts[1:-1] = x.searchsorted(edges[1:-1], side="left")
+    counts = cuts[1:] - cuts[:-1]
     centres = 0.5 * (edges[:-1] + edges[1:])
-    w0 = np.cumsum(counts)[:-1].astype(float)  # lower class size for a cut after bin k
+    w0 = cuts[1:-1].astype(float)  # lower class size for a cut after bin k
     s0 = np.cumsum(counts * centres)[:-1]
-    n, total = float(counts.sum()), float((counts * centres).sum())
+    n, total = float(n_x), float((counts * centres).sum())
     w1 = n - w0
     with np.errstate(divide="ignore", invalid="ignore"):
         between = w0 * w1 * (s0 / w0 - (total - s0) / w1) ** 2
     between[(w0 == 0) | (w1 == 0)] = -1.0
-    t = float(edges[1:-1][int(np.argmax(between))])
-    lower, upper = x[x < t], x[x >= t]
-    if lower.size < 2 or upper.size < 2:
+    k = int(np.argmax(between))
+    t = float(edges[1:-1][k])
+    split = int(cuts[k + 1])  # scores below t: the lower class
+    if split < 2 or n_x - split < 2:
         return None
-    spread = np.sqrt(0.5 * (lower.var() + upper.var()))
-    if not abs(upper.mean() - lower.mean()) >= MIN_SEPARATION * spread:
+    m0, v0 = _mean_var(x[:split])
+    m1, v1 = _mean_var(x[split:])
+    spread = np.sqrt(0.5 * (v0 + v1))
+    if not abs(m1 - m0) >= MIN_SEPARATION * spread:
         return None  # one class of scores: nothing to tell false alarms by
     return t
+
+
+def _mean_var(a: np.ndarray) -> tuple[float, float]:
+    """``(a.mean(), a.var())``, computed as NumPy computes them, without their call overhead."""
+    mean = np.add.reduce(a) / a.shape[0]
+    d = a - mean
+    return float(mean), float(np.add.reduce(d * d) / a.shape[0])
 
 
 class ScoreSplit:
     """Running Otsu split of the scores seen so far (online: frame ``t`` uses frames ``1..t``).
 
-    The threshold is recomputed every frame for the first 500 scores, then whenever the
-    number of scores seen has grown by 5 % (it moves little once the histogram is full).
+    The threshold is due again every frame for the first 500 scores, then whenever the number
+    of scores seen has grown by 5 % (it moves little once the histogram is full). A due
+    threshold is computed when it is first read, so frames whose detections all go to targets
+    cost no split.
     """
 
     def __init__(self) -> None:
-        self._chunks: list[np.ndarray] = []
+        self._chunks: list[np.ndarray] = []  # the kept scores, in the order seen
+        self._n_kept = 0
         self._n = 0  # scores seen
         self._n_at_split = 0
-        self.threshold: float | None = None
+        self._due: tuple[np.ndarray, ...] | None = None  # scores of a threshold not yet computed
+        self._threshold: float | None = None
+
+    @property
+    def threshold(self) -> float | None:
+        """The split of the scores up to the latest one it was due for (None: no split)."""
+        if self._due is not None:
+            x = np.concatenate(self._due)
+            self._threshold = otsu_threshold_sorted(np.sort(x[np.isfinite(x)]))
+            self._due = None
+        return self._threshold
+
+    def add(self, scores: np.ndarray) -> None:
+        """Add one frame's ``scores (M,)``."""
+        scores = np.array(scores, dtype=float).reshape(-1)  # a copy: kept until the split
+        if not scores.size:
+            return
+        self._chunks.append(scores)
+        self._n_kept += scores.size
+        self._n += scores.size
+        if self._n >= MIN_SCORES and (self._n < 500 or self._n >= 1.05 * self._n_at_split):
+            if self._n_kept > MAX_KEPT:  # drop the oldest scores
+                self._chunks = [np.concatenate(self._chunks)[-MAX_KEPT:]]
+                self._n_kept = MAX_KEPT
+            self._due = tuple(self._chunks)
+            self._n_at_split = self._n
+
+    def may_start(self, scores: np.ndarray) -> np.ndarray:
+        """Which of ``scores (M,)`` lie in the upper class of the split ``(M,)`` (all of them
+        while there is no split)."""
+        scores = np.asarray(scores, dtype=float).reshape(-1)
+        t = self.threshold
+        if t is None:
+            return np.ones(scores.shape[0], dtype=bool)
+        return scores >= t
 
     def update(self, scores: np.ndarray) -> np.ndarray:
         """Add one frame's ``scores (M,)``; return which of them may start a target ``(M,)``."""
-        scores = np.asarray(scores, dtype=float).reshape(-1)
-        if scores.size:
-            self._chunks.append(scores)
-            self._n += scores.size
-            if self._n >= MIN_SCORES and (self._n < 500 or self._n >= 1.05 * self._n_at_split):
-                kept = np.concatenate(self._chunks)[-MAX_KEPT:]
-                self._chunks = [kept]
-                self.threshold = otsu_threshold(kept)
-                self._n_at_split = self._n
-        if self.threshold is None:
-            return np.ones(scores.shape[0], dtype=bool)
-        return scores >= self.threshold
+        self.add(scores)
+        return self.may_start(scores)
