@@ -5,12 +5,17 @@ Every tracker gets the same public Faster R-CNN detections
 :func:`avtrack.metrics.evaluate_mot` (TrackEval's metrics, MOT15 preprocessing) against the
 sequence's ground truth. Peers come from the PyPI ``trackers`` package (``pip install
 avtrack[bench]``) with their default parameters: ``SORTTracker``, ``ByteTrackTracker``,
-``OCSORTTracker``. Each takes one ``supervision.Detections`` per frame and returns detections
-with a ``tracker_id``; rows with ``tracker_id == -1`` (tracks not yet confirmed) are not output,
-as in the package's own MOT writer and evaluator.
+``OCSORTTracker``, ``BoTSORTTracker``, ``CBIoUTracker``, ``McByteTracker``. Each takes one
+``supervision.Detections`` per frame and returns detections with a ``tracker_id``; rows with
+``tracker_id == -1`` (tracks not yet confirmed) are not output, as in the package's own MOT
+writer and evaluator. No image is passed: BoT-SORT's and McByte's camera-motion compensation
+(on by default) needs the frames and is then skipped, and McByte's mask manager is off by
+default, so these two run on the boxes alone, as every other tracker here does.
 
 Speed is frames per second over the whole sequence, the best of ``--repeats`` runs after one
-warm-up run, with the garbage collector paused as ``timeit`` does. Only the tracking loop is
+warm-up run, with the garbage collector paused as ``timeit`` does. The trackers take turns
+(one timed run of each, then the next round), so that a load that comes and goes on a shared
+machine falls on all of them alike and the ratios stay comparable. Only the tracking loop is
 timed: for the peers, creating a tracker and its per-frame ``update`` calls (the detections are
 converted to ``supervision.Detections`` beforehand); for avtrack, the call
 ``track_mot(dets)``, which includes its own per-frame slicing and building the result. Reading
@@ -48,6 +53,7 @@ from avtrack.metrics.mot import MOTScores, evaluate_mot
 REPO_ROOT = Path(__file__).resolve().parents[1]
 SEQUENCE = "TUD-Campus"
 PEERS = {"sort": "SORTTracker", "bytetrack": "ByteTrackTracker", "ocsort": "OCSORTTracker",
+         "botsort": "BoTSORTTracker", "cbiou": "CBIoUTracker", "mcbyte": "McByteTracker",
          "sort-bewley": "Sort"}
 TRACKERS = ("avtrack", *PEERS)
 LABELS = {
@@ -56,6 +62,9 @@ LABELS = {
     "sort": "SORT",
     "bytetrack": "ByteTrack",
     "ocsort": "OC-SORT",
+    "botsort": "BoT-SORT",
+    "cbiou": "C-BIoU",
+    "mcbyte": "McByte",
 }
 
 
@@ -155,29 +164,43 @@ def avtrack_runner(dets: MOTData) -> tuple[Callable[[], Any], Callable[[Any], MO
     return loop, lambda out: out
 
 
-def run_one(key: str, dets: MOTData, gt: MOTData, repeats: int) -> Run:
+def runner(key: str, dets: MOTData) -> tuple[Callable[[], Any], Callable[[Any], MOTData]]:
+    """``(loop, to_mot)`` of tracker ``key`` (see :func:`peer_runner`)."""
     if key == "avtrack":
-        loop, to_mot = avtrack_runner(dets)
-    elif key == "sort-bewley":
-        loop, to_mot = bewley_sort_runner(dets)
-    else:
-        loop, to_mot = peer_runner(key, dets)
-    first = to_mot(loop())  # warm-up run; also the result that is scored
-    times = []
+        return avtrack_runner(dets)
+    if key == "sort-bewley":
+        return bewley_sort_runner(dets)
+    return peer_runner(key, dets)
+
+
+def run_all(keys: list[str], dets: MOTData, gt: MOTData, repeats: int) -> list[Run]:
+    """Score and time the trackers ``keys``: one warm-up run of each (the result scored),
+    then ``repeats`` rounds of one timed run of each."""
+    loops, firsts, outs = {}, {}, {}
+    for key in keys:
+        print(f"running {LABELS[key]} ...", file=sys.stderr, flush=True)
+        loops[key] = runner(key, dets)
+        firsts[key] = loops[key][1](loops[key][0]())  # warm-up run; also the result scored
+    times: dict[str, list[float]] = {key: [] for key in keys}
     for _ in range(repeats):
-        gc.collect()
-        gc.disable()
-        try:
-            t0 = time.perf_counter()
-            out = loop()
-            times.append(time.perf_counter() - t0)
-        finally:
-            gc.enable()
-    last = to_mot(out)
-    if not (np.array_equal(first.ids, last.ids) and np.array_equal(first.boxes, last.boxes)):
-        raise RuntimeError(f"{key}: two runs on the same input gave different tracks")
-    scores = evaluate_mot(gt, first, benchmark="MOT15", n_frames=dets.n_frames)
-    return Run(LABELS[key], scores, dets.n_frames / min(times), tuple(times))
+        for key in keys:
+            gc.collect()
+            gc.disable()
+            try:
+                t0 = time.perf_counter()
+                outs[key] = loops[key][0]()
+                times[key].append(time.perf_counter() - t0)
+            finally:
+                gc.enable()
+    runs = []
+    for key in keys:
+        first, last = firsts[key], loops[key][1](outs[key])
+        if not (np.array_equal(first.ids, last.ids) and np.array_equal(first.boxes, last.boxes)):
+            raise RuntimeError(f"{key}: two runs on the same input gave different tracks")
+        scores = evaluate_mot(gt, first, benchmark="MOT15", n_frames=dets.n_frames)
+        runs.append(Run(LABELS[key], scores, dets.n_frames / min(times[key]),
+                        tuple(times[key])))
+    return runs
 
 
 # --------------------------------------------------------------------------- report
@@ -268,7 +291,8 @@ def report(runs: list[Run], info: dict[str, str], repeats: int, det_path: Path) 
         "",
         f"Detections: `{det_path.name}` of {SEQUENCE} ({n_frames} frames). Scores: "
         "`avtrack.metrics.evaluate_mot` (TrackEval metrics, MOT15 preprocessing). fps: frames "
-        f"per second of the tracking loop only, best of {repeats} runs after a warm-up.",
+        f"per second of the tracking loop only, best of {repeats} runs after a warm-up, the "
+        "trackers taking turns.",
         "",
         f"Machine: {info['cpu']} ({info['cores']}), {info['os']}; Python {info['python']}, "
         f"NumPy {info['numpy']}; {info['versions']}. Date: {info['date']}.",
@@ -313,10 +337,7 @@ def main(argv: list[str] | None = None) -> int:
     gt = read_mot(gt_path, kind="gt")
 
     keys = [k for k in TRACKERS if k in (args.only or TRACKERS)]
-    runs = []
-    for key in keys:
-        print(f"running {LABELS[key]} ...", file=sys.stderr, flush=True)
-        runs.append(run_one(key, dets, gt, args.repeats))
+    runs = run_all(keys, dets, gt, args.repeats)
     text = report(runs, machine(), args.repeats, det_path)
     print(text)
     if args.markdown is not None:

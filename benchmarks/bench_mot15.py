@@ -1,10 +1,12 @@
-"""The visual tracker on all six shared MOT15 sequences, beside SORT, ByteTrack and OC-SORT.
+"""The visual tracker on all six shared MOT15 sequences, beside SORT, ByteTrack, OC-SORT,
+BoT-SORT, C-BIoU and McByte.
 
 Every tracker gets SORT's public Faster R-CNN detections of ADL-Rundle-6, ETH-Bahnhof,
 KITTI-13, PETS09-S2L1, TUD-Campus and Venice-2 (``../shared/data/mot15``) and is scored by
 :func:`avtrack.metrics.evaluate_mot` (MOT15 preprocessing, sequence length and image size from
 ``seqinfo.ini``). Peers run as ``benchmarks/bench_mot.py`` runs them, with their defaults
-(PyPI ``trackers``: SORT, ByteTrack, OC-SORT; Bewley's original SORT, ``sort-tracker-py``).
+(PyPI ``trackers``: SORT, ByteTrack, OC-SORT, BoT-SORT, C-BIoU, McByte, on the boxes alone;
+Bewley's original SORT, ``sort-tracker-py``).
 avtrack runs with its defaults (given the frame rate from ``seqinfo.ini``) and with one default
 taken out at a time (``CANDIDATES``). Combined rows: MOTA from FP, FN and IDSW summed over the
 sequences and divided by the summed ground-truth boxes; mean IDF1 and HOTA; "IDF1 (summed)"
@@ -39,7 +41,9 @@ import bench_mot  # noqa: E402
 DATA = Path(__file__).resolve().parents[1] / ".." / "shared" / "data" / "mot15"
 SEQS = ["ADL-Rundle-6", "ETH-Bahnhof", "KITTI-13", "PETS09-S2L1", "TUD-Campus", "Venice-2"]
 PEERS = [("sort-bewley", "SORT (Bewley, original)"), ("sort", "trackers SORT"),
-         ("bytetrack", "trackers ByteTrack"), ("ocsort", "trackers OC-SORT")]
+         ("bytetrack", "trackers ByteTrack"), ("ocsort", "trackers OC-SORT"),
+         ("botsort", "trackers BoT-SORT"), ("cbiou", "trackers C-BIoU"),
+         ("mcbyte", "trackers McByte")]
 #: label -> (OVBTConfig, whether the tracker is told the sequence's frame rate). The defaults
 #: get the frame rate (seqinfo.ini), as ``avtrack track-mot`` does; the other rows take one
 #: default out at a time.

@@ -16,6 +16,9 @@ written here (15 lines).
 
 from __future__ import annotations
 
+import functools
+import math
+
 import numpy as np
 
 #: scores needed before a split is trusted (below: every detection may start a target)
@@ -57,31 +60,42 @@ def otsu_threshold_sorted(x: np.ndarray, bins: int = BINS) -> float | None:
     if not hi - lo > 1e-9 * max(1.0, abs(hi)):
         return None
     # np.histogram's edges for this range: np.linspace(lo, hi, bins + 1), term by term
-    edges = np.arange(bins + 1, dtype=float) * ((hi - lo) / bins) + lo
+    edges = _steps(bins) * ((hi - lo) / bins) + lo
     edges[-1] = hi
-    cuts = np.empty(bins + 1, dtype=np.int64)
-    cuts[0], cuts[-1] = 0, n_x
-    cuts[1:-1] = x.searchsorted(edges[1:-1], side="left")
-    counts = cuts[1:] - cuts[:-1]
-    centres = 0.5 * (edges[:-1] + edges[1:])
-    w0 = cuts[1:-1].astype(float)  # lower class size for a cut after bin k
-    s0 = np.cumsum(counts * centres)[:-1]
-    n, total = float(n_x), float((counts * centres).sum())
-    w1 = n - w0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    inner = edges[1:-1]
+    below = x.searchsorted(inner)  # scores below each inner edge: the lower class's size w0
+    # bin counts (differences of 0, below, n) times the bin centres
+    sums = np.concatenate(([0], below, [n_x]))
+    sums = (sums[1:] - sums[:-1]) * (0.5 * (edges[:-1] + edges[1:]))
+    s0 = sums.cumsum()[:-1]  # lower class's score sum for a cut after bin k
+    total = float(np.add.reduce(sums))
+    w0 = below.astype(float)
+    w1 = n_x - w0
+    if w0[0] > 0 and w1[-1] > 0:  # (always: x[0] lies below the first inner edge, x[-1] above
+        # the last; w0 and w1 are monotone)
         between = w0 * w1 * (s0 / w0 - (total - s0) / w1) ** 2
-    between[(w0 == 0) | (w1 == 0)] = -1.0
-    k = int(np.argmax(between))
-    t = float(edges[1:-1][k])
-    split = int(cuts[k + 1])  # scores below t: the lower class
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            between = w0 * w1 * (s0 / w0 - (total - s0) / w1) ** 2
+        between[(w0 == 0) | (w1 == 0)] = -1.0
+    k = int(between.argmax())
+    t = float(inner[k])
+    split = int(below[k])  # scores below t: the lower class
     if split < 2 or n_x - split < 2:
         return None
     m0, v0 = _mean_var(x[:split])
     m1, v1 = _mean_var(x[split:])
-    spread = np.sqrt(0.5 * (v0 + v1))
-    if not abs(m1 - m0) >= MIN_SEPARATION * spread:
+    if not abs(m1 - m0) >= MIN_SEPARATION * math.sqrt(0.5 * (v0 + v1)):
         return None  # one class of scores: nothing to tell false alarms by
     return t
+
+
+@functools.lru_cache(maxsize=8)
+def _steps(bins: int) -> np.ndarray:
+    """``(bins + 1,)`` read-only ``0, 1, ..., bins`` as floats."""
+    out = np.arange(bins + 1, dtype=float)
+    out.flags.writeable = False
+    return out
 
 
 def _mean_var(a: np.ndarray) -> tuple[float, float]:
