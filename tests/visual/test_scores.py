@@ -193,14 +193,18 @@ def test_otsu_on_sorted_scores_equals_the_histogram_computation():
         assert otsu_threshold(x) == _otsu_by_histogram(x)
 
 
-def test_running_split_is_the_split_of_the_scores_so_far():
+def test_running_split_is_the_split_of_the_scores_when_last_due():
+    """The split is due again once the scores seen have grown by 5 %; it is then Otsu's
+    threshold of all the scores so far."""
     rng = np.random.default_rng(2)
-    split, seen = ScoreSplit(), []
-    for _ in range(60):  # 420 scores: the split is due every frame
+    split, seen, at_split = ScoreSplit(), [], None
+    for _ in range(60):
         frame = np.r_[rng.normal(0.9, 0.04, 5), rng.normal(0.4, 0.1, 2)]
         seen.append(frame)
+        n = sum(f.size for f in seen)
+        if n >= MIN_SCORES and (at_split is None or n >= 1.05 * at_split):
+            at_split = n
         got = split.update(frame)
-        all_scores = np.concatenate(seen)
-        t = otsu_threshold(all_scores) if all_scores.size >= MIN_SCORES else None
+        t = None if at_split is None else otsu_threshold(np.concatenate(seen)[:at_split])
         assert split.threshold == t
         assert got.tolist() == (frame >= t if t is not None else np.ones(7, bool)).tolist()

@@ -4,6 +4,9 @@ Per frame: VEM on the box observation model (engine, thesis eqs. 2.22–2.29 / 3
 then the visibility HMM (eqs. 3.31–3.32), death after ``death_frames`` invisible frames
 (§3.1.4), and birth from smooth sequences of clutter-assigned detections (eq. 3.30).
 Sleeping (invisible) targets stay in the engine, so a matching appearance can wake them up.
+Weak detections (below the running split of the detector's scores) follow targets but start
+none, and a second visibility filter, on the evidence of the strong ones, decides which
+targets are shown (``OVBTConfig.weak_evidence``; not in the thesis, which uses no scores).
 
 Example
 -------
@@ -149,7 +152,7 @@ class FrameTracks:
     Attributes
     ----------
     ids : ndarray (K,) int
-        Identities (≥ 1) of the visible targets.
+        Identities (≥ 1) of the shown targets (visible on the strong detections' evidence).
     boxes : ndarray (K, 4)
         (left, top, width, height) from the posterior means.
     p_visible : ndarray (K,)
