@@ -28,7 +28,7 @@ def _load(root, seq):
 def test_defaults_beat_sort_and_bytetrack_over_the_six_sequences(shared_data):
     """Combined MOTA at least the original SORT's 38.0, mean IDF1 and mean HOTA at least
     C-BIoU's 52.0 and 38.2 (the best peers on each), all on SORT's detections (peers measured
-    by benchmarks/bench_mot15.py); avtrack 40.9 / 53.8 / 39.7 today."""
+    by benchmarks/bench_mot15.py); avtrack 40.8 / 53.8 / 39.7 today."""
     errors = n_gt = 0
     idf1, hota = [], []
     for seq in SEQS:
