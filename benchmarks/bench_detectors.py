@@ -182,7 +182,8 @@ def track(video: str, dets: MOTData) -> tuple[float, float]:
         det_path, res_path = Path(tmp) / "det.txt", Path(tmp) / "res.txt"
         write_mot(det_path, dets)
         try:
-            run = track_mot_sequence(default_config(video=True), det_path, video=VIDEOS[video])
+            run = track_mot_sequence(default_config(video=True, detector=True), det_path,
+                                     video=VIDEOS[video])
         except InputError:
             return float("nan"), float("nan")
         write_mot(res_path, run.tracks)

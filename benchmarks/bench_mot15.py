@@ -24,6 +24,8 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import argparse  # noqa: E402
+import itertools  # noqa: E402
 import sys  # noqa: E402
 from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -50,12 +52,18 @@ PEERS = [("sort-bewley", "SORT (Bewley, original)"), ("sort", "trackers SORT"),
 CANDIDATES = {
     "avtrack defaults": (OVBTConfig(), True),
     "avtrack defaults, frame rate not given": (OVBTConfig(), False),
+    "avtrack defaults, weak detections show targets": (
+        replace(OVBTConfig(), weak_evidence=1.0), True),
+    "avtrack defaults, weak detections never show targets": (
+        replace(OVBTConfig(), weak_evidence=0.0), True),
+    "avtrack defaults, velocity noise not scaled": (
+        replace(OVBTConfig(), vel_rate_exponent=0.0), True),
     "avtrack defaults, no score split": (replace(OVBTConfig(), birth_score_split=False), True),
-    "avtrack, neither (previous defaults)": (replace(OVBTConfig(), birth_score_split=False),
-                                             False),
-    "avtrack birth_min_score 0.88": (replace(OVBTConfig(), birth_min_score=0.88), True),
-    "avtrack min_score 0.9": (replace(OVBTConfig(), min_score=0.9), True),
+    "avtrack, weak detections show targets, velocity noise not scaled (previous defaults)": (
+        replace(OVBTConfig(), weak_evidence=1.0, vel_rate_exponent=0.0), True),
 }
+#: the defaults chosen leave one sequence out (``--loso``): name -> values tried
+GRID = {"weak_evidence": (0.0, 0.2, 0.5, 1.0), "vel_rate_exponent": (0.0, 0.5, 1.0)}
 
 
 def load(seq: str) -> dict:
@@ -83,7 +91,37 @@ def combine(rows: list[dict]) -> dict:
             "IDF1w": 100 * 2 * idtp / (g + nres)}
 
 
-def main() -> int:
+def avtrack_rows(data: dict, config: OVBTConfig, with_fps: bool = True) -> dict[str, dict]:
+    return {s: row(evaluate_mot(d["gt"], track_mot(
+        d["dets"], None, config, d["size"], d["n"], d["fps"] if with_fps else None),
+        n_frames=d["n"])) for s, d in data.items()}
+
+
+def loso(data: dict) -> None:
+    """Print the leave-one-sequence-out choice of the ``GRID`` defaults."""
+    points = [dict(zip(GRID, values, strict=True)) for values in itertools.product(
+        *GRID.values())]
+    runs = [avtrack_rows(data, replace(OVBTConfig(), **pt)) for pt in points]
+    default = avtrack_rows(data, OVBTConfig())
+    names = ", ".join(GRID)
+    print(f"\nLeave one sequence out ({names} over {len(points)} grid points; chosen by "
+          f"combined MOTA + mean IDF1 + mean HOTA on the other five)\n\n| left out | chosen "
+          f"({names}) | left out, chosen | left out, defaults |\n|---|---|---|---|")
+    for held in SEQS:
+        rest = [s for s in SEQS if s != held]
+        best = max(range(len(points)), key=lambda i: sum(
+            combine([runs[i][s] for s in rest])[k] for k in ("MOTA", "IDF1", "HOTA")))
+        got, ref = runs[best][held], default[held]
+        print(f"| {held} | {', '.join(str(v) for v in points[best].values())} | "
+              f"{got['MOTA']:.1f} / {got['IDF1']:.1f} / {got['HOTA']:.1f} | "
+              f"{ref['MOTA']:.1f} / {ref['IDF1']:.1f} / {ref['HOTA']:.1f} |")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--loso", action="store_true",
+                        help="also choose the GRID defaults leave one sequence out")
+    args = parser.parse_args(argv)
     data = {s: load(s) for s in SEQS}
     runs: dict[str, dict[str, dict]] = {}
     for key, label in PEERS:
@@ -95,9 +133,7 @@ def main() -> int:
                 loop, to_mot = bench_mot.peer_runner(key, d["dets"])
             runs[label][s] = row(evaluate_mot(d["gt"], to_mot(loop()), n_frames=d["n"]))
     for label, (config, with_fps) in CANDIDATES.items():
-        runs[label] = {s: row(evaluate_mot(d["gt"], track_mot(
-            d["dets"], None, config, d["size"], d["n"], d["fps"] if with_fps else None),
-            n_frames=d["n"])) for s, d in data.items()}
+        runs[label] = avtrack_rows(data, config, with_fps)
     print("| tracker | " + " | ".join(f"{s} ({data[s]['fps']:.0f} fps)" for s in SEQS) + " |")
     print("|---|" + "---|" * len(SEQS))
     for label, rows in runs.items():
@@ -110,8 +146,10 @@ def main() -> int:
               f"| IDF1 (summed) |\n|---|---|---|---|---|---|---|---|")
         for label, rows in runs.items():
             c = combine([rows[s] for s in seqs])
-            print(f"| {label} | {c['MOTA']:.1f} | {c['IDF1']:.1f} | {c['HOTA']:.1f} | {c['FP']} | "
-                  f"{c['FN']} | {c['IDSW']} | {c['IDF1w']:.1f} |")
+            print(f"| {label} | {c['MOTA']:.2f} | {c['IDF1']:.2f} | {c['HOTA']:.2f} | {c['FP']} "
+                  f"| {c['FN']} | {c['IDSW']} | {c['IDF1w']:.1f} |")
+    if args.loso:
+        loso(data)
     return 0
 
 

@@ -12,7 +12,12 @@ import pytest
 from avtrack.errors import InputError
 from avtrack.io.mot import MOTData, read_mot, write_mot
 from avtrack.pipelines import MOTRun, track_mot_sequence
-from avtrack.pipelines.mot import VIDEO_DEFAULTS, default_config, score_against_sequence
+from avtrack.pipelines.mot import (
+    DETECTOR_DEFAULTS,
+    VIDEO_DEFAULTS,
+    default_config,
+    score_against_sequence,
+)
 from avtrack.visual.ovbt import OVBTConfig, track_mot
 from tests.io.test_video import write_video
 
@@ -43,6 +48,14 @@ def sequence(tmp_path):
 def test_default_config_adds_the_video_defaults_only_with_a_video():
     assert default_config(video=False) == OVBTConfig()
     assert default_config(video=True) == replace(OVBTConfig(), **VIDEO_DEFAULTS)
+
+
+def test_default_config_for_a_built_in_detector_lets_weak_boxes_show_targets():
+    assert default_config(video=True, detector=True) == replace(
+        OVBTConfig(), **VIDEO_DEFAULTS, **DETECTOR_DEFAULTS)
+    assert default_config(video=True, detector=True).weak_evidence == 1.0
+    with pytest.raises(ValueError, match="needs video"):
+        default_config(video=False, detector=True)
 
 
 def test_detections_file_tracks_as_the_library_does_with_the_seqinfo(sequence):

@@ -125,7 +125,7 @@ def test_tud_campus_scores(shared_data):
 
     The reference is the original SORT's scores on these detections (MOTA 62.7, IDF1 60.6;
     ``benchmarks/bench_mot.py`` runs Bewley's code and reproduces them); avtrack reaches
-    MOTA 64.3, IDF1 71.3, HOTA 53.5 today.
+    MOTA 64.1, IDF1 71.0, HOTA 53.1 today.
     """
     seq = shared_data / "mot15" / "TUD-Campus"
     dets = read_mot(seq / "det" / "det.txt")

@@ -105,14 +105,38 @@ def test_weak_detections_never_start_a_target_but_strong_ones_do():
 
 
 def test_a_weak_detection_still_updates_its_target():
-    """Once a target exists, its detections turning weak keep it visible (they are used by the
-    association, only not by births)."""
-    tr = OVBTracker(replace(OVBTConfig(), birth_min_score=0.9), image_size=(640, 480))
-    for f in range(40):
-        score = 0.95 if f < 10 else 0.3
-        out = tr.step(np.array([[100.0 + 2 * f, 200.0, 50.0, 120.0]]), np.array([score]))
-    assert out.ids.tolist() == [1]
-    assert abs(out.boxes[0, 0] - (100.0 + 2 * 39)) < 5
+    """Once a target exists, its detections turning weak update it and keep it alive (they are
+    used by the association, only not by births); they show it only with weak_evidence 1."""
+    def run(cfg, n_weak):
+        tr = OVBTracker(cfg, image_size=(640, 480))
+        outs = []
+        for f in range(10 + n_weak + 5):
+            score = 0.3 if 10 <= f < 10 + n_weak else 0.95
+            outs.append(tr.step(np.array([[100.0 + 2 * f, 200.0, 50.0, 120.0]]),
+                                np.array([score])))
+        return tr, outs
+
+    cfg = replace(OVBTConfig(), birth_min_score=0.9)
+    tr, outs = run(replace(cfg, weak_evidence=1.0), 30)
+    assert outs[39].ids.tolist() == [1]  # shown through the weak detections
+    assert abs(outs[39].boxes[0, 0] - (100.0 + 2 * 39)) < 5
+    tr, outs = run(cfg, 30)  # default: followed, not shown, shown again with its identity
+    assert outs[39].ids.tolist() == [] and tr.engine.ids.tolist() == [1]
+    assert abs(tr.engine.mu[0, 0] - (125.0 + 2 * 44)) < 5  # box centre x, followed all along
+    assert outs[-1].ids.tolist() == [1] and abs(outs[-1].boxes[0, 0] - (100.0 + 2 * 44)) < 5
+
+
+@pytest.mark.parametrize("weak_evidence", [1.0, 0.0])
+def test_weak_evidence_one_and_no_velocity_scaling_are_the_previous_tracker(weak_evidence):
+    """weak_evidence 1 shows targets on every detection's evidence: the visibility it outputs
+    is the one that decides deaths."""
+    dets = _scene_with_weak_false_alarm()
+    tr = OVBTracker(replace(OVBTConfig(), weak_evidence=weak_evidence), image_size=(640, 480))
+    for sl in dets.frame_slices(dets.n_frames):
+        out = tr.step(dets.boxes[sl], dets.scores[sl])
+        if weak_evidence == 1.0:
+            assert np.array_equal(tr.p_shown, tr.p_visible)
+        assert np.all(out.p_visible > 0.5)
 
 
 def test_scores_must_be_finite():
@@ -169,14 +193,18 @@ def test_otsu_on_sorted_scores_equals_the_histogram_computation():
         assert otsu_threshold(x) == _otsu_by_histogram(x)
 
 
-def test_running_split_is_the_split_of_the_scores_so_far():
+def test_running_split_is_the_split_of_the_scores_when_last_due():
+    """The split is due again once the scores seen have grown by 5 %; it is then Otsu's
+    threshold of all the scores so far."""
     rng = np.random.default_rng(2)
-    split, seen = ScoreSplit(), []
-    for _ in range(60):  # 420 scores: the split is due every frame
+    split, seen, at_split = ScoreSplit(), [], None
+    for _ in range(60):
         frame = np.r_[rng.normal(0.9, 0.04, 5), rng.normal(0.4, 0.1, 2)]
         seen.append(frame)
+        n = sum(f.size for f in seen)
+        if n >= MIN_SCORES and (at_split is None or n >= 1.05 * at_split):
+            at_split = n
         got = split.update(frame)
-        all_scores = np.concatenate(seen)
-        t = otsu_threshold(all_scores) if all_scores.size >= MIN_SCORES else None
+        t = None if at_split is None else otsu_threshold(np.concatenate(seen)[:at_split])
         assert split.threshold == t
         assert got.tolist() == (frame >= t if t is not None else np.ones(7, bool)).tolist()

@@ -83,7 +83,7 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                      "colour histograms of the detection boxes (hue-saturation-value, the inner "
                      "part of each box) become the appearance (thesis eq. 3.5, Bhattacharyya "
                      "likelihood) and re-identify targets that ended lately "
-                     "(appearance_lambda 5, reid_log_ratio 0.2, reid_max_age 25, "
+                     "(appearance_lambda 10, reid_log_ratio 0.4, reid_max_age 25, "
                      "reid_max_distance 4 unless --config says otherwise); image size and "
                      "length from the video")
     p.add_argument("--detector", metavar="NAME",
@@ -91,7 +91,8 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                    f"detector ({', '.join(DETECTORS)}; default {DEFAULT_PERSON_DETECTOR}, "
                    "people walking, from the avtrack[detectors] extra) or your own as "
                    "module:attribute (an object or factory with detect(frame) -> (boxes ltwh "
-                   "(M, 4), scores (M,)))")
+                   "(M, 4), scores (M,))); its boxes with low scores show targets as the others "
+                   "do (weak_evidence 1 unless --config says otherwise)")
     p.add_argument("--report", type=Path, metavar="DIR",
                    help="with --video: write DIR/index.html, DIR/tracks.mp4 and tracks.webm, the "
                    "tracks drawn over the video's own frames (with the scores and the ground "
@@ -137,7 +138,9 @@ def detect_in_video(video_path: Path, spec: str, quiet: bool):
 
 
 def run(args: argparse.Namespace) -> int:
-    config = load_config(args.config, mot.default_config(args.video is not None),
+    config = load_config(args.config, mot.default_config(args.video is not None,
+                                                         detector=args.video is not None
+                                                         and args.detections is None),
                          overrides={"min_score": args.min_score,
                                     "birth_min_score": args.birth_min_score})
     if args.fps is not None and not (np.isfinite(args.fps) and 0 < args.fps <= 1000):

@@ -27,10 +27,11 @@ from avtrack.visual.histograms import detection_histograms
 from avtrack.visual.ovbt import OVBTConfig, image_size_from_detections, track_mot
 
 #: OVBTConfig fields that tracking with the video changes (before a config file): the weight
-#: of the person colour histograms in the association (λ of eq. 3.5; IDF1 gains are flat for
-#: λ in 4-10) and re-identification of a target that ended lately. Chosen on TUD-Campus and
-#: PETS09-S2L1, the two shared sequences with video (BENCHMARKS.md).
-VIDEO_DEFAULTS: dict[str, Any] = {"appearance_lambda": 5.0, "reid_log_ratio": 0.2,
+#: of the person colour histograms in the association (λ of eq. 3.5; MOTA with the video is
+#: at least MOTA without it for λ in 8-15, lower below) and re-identification of a target that
+#: ended lately. Chosen on TUD-Campus and PETS09-S2L1, the two shared sequences with video
+#: (BENCHMARKS.md).
+VIDEO_DEFAULTS: dict[str, Any] = {"appearance_lambda": 10.0, "reid_log_ratio": 0.4,
                                   "reid_max_age": 25, "reid_max_distance": 4.0}
 
 #: Opens a named stage of a run around one long call (a progress display); see
@@ -43,10 +44,23 @@ def no_stage(desc: str) -> AbstractContextManager[object]:
     return contextlib.nullcontext()
 
 
-def default_config(video: bool) -> OVBTConfig:
+#: OVBTConfig fields that tracking a built-in detector's boxes changes (after
+#: :data:`VIDEO_DEFAULTS`): the detectors report only boxes above their own operating point, and
+#: the lower class of those scores is mostly people, so weak boxes show targets as strong ones
+#: do (on TUD-Campus with ``ssd-person``, MOTA 61.6 against 57.7 at the public detections'
+#: ``weak_evidence``; BENCHMARKS.md, detectors).
+DETECTOR_DEFAULTS: dict[str, Any] = {"weak_evidence": 1.0}
+
+
+def default_config(video: bool, detector: bool = False) -> OVBTConfig:
     """The tracker's defaults on this path: :class:`OVBTConfig`'s, with :data:`VIDEO_DEFAULTS`
-    over them when the appearance comes from the video's frames (``video``)."""
-    return replace(OVBTConfig(), **VIDEO_DEFAULTS) if video else OVBTConfig()
+    over them when the appearance comes from the video's frames (``video``) and
+    :data:`DETECTOR_DEFAULTS` when a built-in detector found the boxes in them (``detector``)."""
+    if not video:
+        if detector:
+            raise ValueError("a detector finds the boxes in a video: detector needs video")
+        return OVBTConfig()
+    return replace(OVBTConfig(), **VIDEO_DEFAULTS, **(DETECTOR_DEFAULTS if detector else {}))
 
 
 @dataclass(frozen=True, eq=False)

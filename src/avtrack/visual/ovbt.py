@@ -4,6 +4,9 @@ Per frame: VEM on the box observation model (engine, thesis eqs. 2.22–2.29 / 3
 then the visibility HMM (eqs. 3.31–3.32), death after ``death_frames`` invisible frames
 (§3.1.4), and birth from smooth sequences of clutter-assigned detections (eq. 3.30).
 Sleeping (invisible) targets stay in the engine, so a matching appearance can wake them up.
+Weak detections (below the running split of the detector's scores) follow targets but start
+none, and a second visibility filter, on the evidence of the strong ones, decides which
+targets are shown (``OVBTConfig.weak_evidence``; not in the thesis, which uses no scores).
 
 Example
 -------
@@ -68,6 +71,8 @@ class OVBTConfig:
     dyn_std_pos: float = 0.05  #: Λ: centre std per frame / box size
     dyn_std_size: float = 0.03  #: Λ: size std per frame / box size
     dyn_std_vel: float = 0.02  #: Λ: velocity std per frame / box size
+    #: the velocity std is given at REFERENCE_FPS and scaled by (REFERENCE_FPS / fps) ** this
+    vel_rate_exponent: float = 0.5
     update_priors: bool = True  #: M-step of the assignment priors, eq. 3.29
     marginal_init: bool = True  #: first E-Z step with the predictive marginal, eq. 2.8
     exclusive: bool = True  #: a target explains at most one detection per frame
@@ -90,6 +95,10 @@ class OVBTConfig:
     #: (None: the running Otsu split of the scores, :mod:`avtrack.visual.scores`)
     birth_min_score: float | None = None
     birth_score_split: bool = True  #: use that split when ``birth_min_score`` is None
+    #: weight of such a weak detection in the visibility evidence that shows a target (output);
+    #: death still counts every detection, so a target followed through weak detections is
+    #: kept, unshown (1: weak detections show targets as strong ones do)
+    weak_evidence: float = 0.2
     appearance: str = "bhattacharyya"  #: "bhattacharyya" (histograms) or "cosine" (embeddings)
     appearance_lambda: float = 10.0  #: λ of eq. 3.5 (or κ for "cosine")
     appearance_update: float = 0.1  #: reference-appearance update rate (0: birth appearance)
@@ -120,6 +129,13 @@ class OVBTConfig:
         if self.appearance not in APPEARANCE_MODELS:
             raise ValueError(f"OVBTConfig.appearance must be one of "
                              f"{sorted(APPEARANCE_MODELS)}, got {self.appearance!r}")
+        if not (isinstance(self.vel_rate_exponent, int | float)
+                and 0 <= self.vel_rate_exponent <= 2):
+            raise ValueError(f"OVBTConfig.vel_rate_exponent must be in [0, 2], "
+                             f"got {self.vel_rate_exponent!r}")
+        if not (isinstance(self.weak_evidence, int | float) and 0 <= self.weak_evidence <= 1):
+            raise ValueError(f"OVBTConfig.weak_evidence must be in [0, 1], "
+                             f"got {self.weak_evidence!r}")
         if not 0 <= self.appearance_update <= 1:
             raise ValueError(f"OVBTConfig.appearance_update must be in [0, 1], "
                              f"got {self.appearance_update!r}")
@@ -137,7 +153,7 @@ class FrameTracks:
     Attributes
     ----------
     ids : ndarray (K,) int
-        Identities (≥ 1) of the visible targets.
+        Identities (≥ 1) of the shown targets (visible on the strong detections' evidence).
     boxes : ndarray (K, 4)
         (left, top, width, height) from the posterior means.
     p_visible : ndarray (K,)
@@ -160,7 +176,8 @@ class OVBTracker(ManagedTargets):
     fps : float, optional
         Frame rate of the sequence (None: :data:`REFERENCE_FPS`). The per-frame size noise
         and birth velocity prior of :class:`OVBTConfig` are given at :data:`REFERENCE_FPS`
-        and scaled by ``REFERENCE_FPS / fps``: a person's size change and displacement per
+        and scaled by ``k = REFERENCE_FPS / fps``, the velocity noise by
+        ``k ** vel_rate_exponent``: a person's size change, displacement and change of pace per
         frame grow with the time between frames.
     """
 
@@ -175,7 +192,9 @@ class OVBTracker(ManagedTargets):
             raise ValueError(f"fps must be a frame rate in (0, 1000], got {fps!r}")
         self.fps = float(REFERENCE_FPS if fps is None else fps)
         per_frame = REFERENCE_FPS / self.fps
+        self._dyn_std_pos = self.config.dyn_std_pos
         self._dyn_std_size = self.config.dyn_std_size * per_frame
+        self._dyn_std_vel = self.config.dyn_std_vel * per_frame ** self.config.vel_rate_exponent
         self._birth_velocity_std = self.config.birth_velocity_std * per_frame
         self.image_size = (float(w), float(h))
         self.log_clutter = -2.0 * np.log(float(w) * float(h))  # u(o): uniform centre and size
@@ -192,6 +211,8 @@ class OVBTracker(ManagedTargets):
         self.p_visible: np.ndarray
         self.invisible_run: np.ndarray
         self.mass_history: np.ndarray
+        self.p_shown: np.ndarray
+        self.shown_history: np.ndarray
         self._init_targets()
         self._pool: deque[BoxObservations] = deque(maxlen=cfg.birth_frames + 1)
         self._has_appearance: bool | None = None
@@ -201,12 +222,12 @@ class OVBTracker(ManagedTargets):
         self.frame = 0
 
     def _dyn_cov(self, mu: np.ndarray) -> np.ndarray:
-        c = self.config
-        return box_dynamics_covariance(mu, c.dyn_std_pos, self._dyn_std_size, c.dyn_std_vel)
+        return box_dynamics_covariance(mu, self._dyn_std_pos, self._dyn_std_size,
+                                       self._dyn_std_vel)
 
     def _dyn_var(self, mu: np.ndarray) -> np.ndarray:
-        c = self.config
-        return box_dynamics_variance(mu, c.dyn_std_pos, self._dyn_std_size, c.dyn_std_vel)
+        return box_dynamics_variance(mu, self._dyn_std_pos, self._dyn_std_size,
+                                     self._dyn_std_vel)
 
     def _velocity_var(self, z: np.ndarray) -> np.ndarray:
         return (self._birth_velocity_std * np.maximum(z[:, 2:4].copy(), 1.0)) ** 2
@@ -288,11 +309,15 @@ class OVBTracker(ManagedTargets):
         return FrameTracks(ids, xywh_to_ltwh(centre_boxes), p_visible)
 
     def _step(self, obs: BoxObservations) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`step` on prepared observations; returns the visible targets' ids ``(K,)``,
+        """:meth:`step` on prepared observations; returns the shown targets' ids ``(K,)``,
         boxes ``(K, 4)`` as (x, y, w, h) and visibility posteriors ``(K,)``."""
         cfg = self.config
         self.frame += 1
         eng = self.engine
+        scores = obs.scores
+        if scores is not None and self._splits:
+            self._score_split.add(scores)
+        strong: np.ndarray | None = None  # (M,): detections that may start or show a target
         # --- VEM on the existing targets ---------------------------------------------------
         if eng.n_targets:
             inf = eng.step([obs], self._dyn_var(eng.mu))  # Λ is diagonal
@@ -303,14 +328,16 @@ class OVBTracker(ManagedTargets):
             resp, mass = inf.responsibilities[0], inf.mass[0][1:]
             unassigned = (resp.argmax(axis=1) == 0).nonzero()[0]
             # --- visibility (eqs. 3.31–3.32) and death (§3.1.4) ---------------------------
-            if cfg.visibility_window == 1:
-                self.mass_history, nu = mass[:, None], mass
+            self.p_visible, self.mass_history = self._visibility(
+                self.p_visible, self.mass_history, mass)
+            if cfg.weak_evidence < 1.0 and scores is not None:
+                strong = self._strong(scores)
+                # ν from the strong detections and a share of the weak ones: what shows a target
+                shown_mass = np.where(strong, 1.0, cfg.weak_evidence).dot(resp)[1:]
+                self.p_shown, self.shown_history = self._visibility(
+                    self.p_shown, self.shown_history, shown_mass)
             else:
-                self.mass_history = np.concatenate([mass[:, None], self.mass_history[:, :-1]],
-                                                   1)
-                nu = self.mass_history.dot(ones(cfg.visibility_window))  # Σ over the window
-            self.p_visible = visibility_filter(self.p_visible, nu, cfg.visibility_stay,
-                                               cfg.visibility_lambda)
+                self.p_shown = self.p_visible
             run = self.invisible_run + 1
             run[self.p_visible > 0.5] = 0  # frames invisible in a row
             self.invisible_run = run
@@ -320,8 +347,10 @@ class OVBTracker(ManagedTargets):
         else:
             unassigned = np.arange(len(obs))
         # --- birth (eq. 3.30) ----------------------------------------------------------------
-        if obs.scores is not None:  # weak detections only update targets
-            unassigned = self._may_start(obs.scores, unassigned)
+        if scores is not None and unassigned.shape[0]:  # weak detections only update targets
+            if strong is None:
+                strong = self._strong(scores)
+            unassigned = unassigned[strong[unassigned]]
         self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
         # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far,
         # so that the people present from the first frame are not held back.
@@ -330,35 +359,53 @@ class OVBTracker(ManagedTargets):
             self._birth()
         elif cfg.startup_birth and self.frame == 1:
             self._first_frame_birth()
-        visible = self.p_visible > 0.5
-        return eng.ids[visible], eng.mu[visible, :BOX_DIM], self.p_visible[visible]
+        shown = self.p_shown > 0.5
+        return eng.ids[shown], eng.mu[shown, :BOX_DIM], self.p_shown[shown]
 
-    def _can_birth(self, scores: np.ndarray) -> np.ndarray:
-        """``(M,)``: which of a frame's detections may start a target (see OVBTConfig)."""
-        can = np.zeros(scores.shape[0], dtype=bool)
-        can[self._may_start(scores, np.arange(scores.shape[0]))] = True
-        return can
+    def _visibility(self, p_visible: np.ndarray, history: np.ndarray,
+                    mass: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The visibility filter's step (eqs. 3.31–3.32) from the targets' assigned ``mass``
+        ``(N,)``: the new posterior ``(N,)`` and the evidence window ``(N, window)``."""
+        cfg = self.config
+        if cfg.visibility_window == 1:
+            history, nu = mass[:, None], mass
+        else:
+            history = np.concatenate([mass[:, None], history[:, :-1]], 1)
+            nu = history.dot(ones(cfg.visibility_window))  # Σ over the window
+        return visibility_filter(p_visible, nu, cfg.visibility_stay,
+                                 cfg.visibility_lambda), history
 
-    def _may_start(self, scores: np.ndarray, unassigned: np.ndarray) -> np.ndarray:
-        """Which of the ``unassigned (U,)`` detections of a frame with ``scores (M,)`` may start
-        a target (see OVBTConfig). The score split takes every frame's scores, and is computed
-        only for a frame with unassigned detections."""
+    @property
+    def _splits(self) -> bool:
+        """Whether the running score split tells weak detections (see OVBTConfig)."""
+        return self.config.birth_min_score is None and self.config.birth_score_split
+
+    def _strong(self, scores: np.ndarray) -> np.ndarray:
+        """``(M,)``: which of the frame's detections, with ``scores (M,)``, are strong (may start
+        a target, count fully in the evidence that shows one); the split has their scores."""
         cfg = self.config
         if cfg.birth_min_score is not None:
-            return unassigned[scores[unassigned] >= cfg.birth_min_score]
-        if not cfg.birth_score_split:
-            return unassigned
-        self._score_split.add(scores)
-        if not unassigned.shape[0]:
-            return unassigned
-        return unassigned[self._score_split.may_start(scores[unassigned])]
+            return scores >= cfg.birth_min_score
+        if cfg.birth_score_split:
+            return self._score_split.may_start(scores)
+        return np.ones(scores.shape[0], dtype=bool)
+
+    def _can_birth(self, scores: np.ndarray) -> np.ndarray:
+        """``(M,)``: which of a frame's detections may start a target (see OVBTConfig); adds
+        the frame's scores to the split (for subclasses with their own frame step)."""
+        if self._splits:
+            self._score_split.add(scores)
+        return self._strong(scores)
 
     def _per_target(self) -> tuple[PerTarget, ...]:
         """Visibility posterior, frames invisible in a row, visibility evidence window."""
+        window = (self.config.visibility_window,)
         return (
             PerTarget("p_visible", 1.0),
             PerTarget("invisible_run", 0, dtype=np.int64),
-            PerTarget("mass_history", 1.0, (self.config.visibility_window,)),
+            PerTarget("mass_history", 1.0, window),
+            PerTarget("p_shown", 1.0),
+            PerTarget("shown_history", 1.0, window),
         )
 
     def _remove(self, keep: np.ndarray) -> None:

@@ -108,10 +108,9 @@ def _mean_var(a: np.ndarray) -> tuple[float, float]:
 class ScoreSplit:
     """Running Otsu split of the scores seen so far (online: frame ``t`` uses frames ``1..t``).
 
-    The threshold is due again every frame for the first 500 scores, then whenever the number
-    of scores seen has grown by 5 % (it moves little once the histogram is full). A due
-    threshold is computed when it is first read, so frames whose detections all go to targets
-    cost no split.
+    The threshold is due again whenever the number of scores seen has grown by 5 % (it moves
+    little once the histogram holds a few hundred scores). A due threshold is computed when it
+    is first read, so frames whose detections all go to targets cost no split.
     """
 
     def __init__(self) -> None:
@@ -139,7 +138,7 @@ class ScoreSplit:
         self._chunks.append(scores)
         self._n_kept += scores.size
         self._n += scores.size
-        if self._n >= MIN_SCORES and (self._n < 500 or self._n >= 1.05 * self._n_at_split):
+        if self._n >= MIN_SCORES and self._n >= 1.05 * self._n_at_split:
             if self._n_kept > MAX_KEPT:  # drop the oldest scores
                 self._chunks = [np.concatenate(self._chunks)[-MAX_KEPT:]]
                 self._n_kept = MAX_KEPT
