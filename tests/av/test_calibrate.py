@@ -20,9 +20,11 @@ def _true_camera(yaw=20.0, pitch=0.0, hfov=60.0, position=(0.0, 0.0, 0.05)):
     return PinholeCamera.from_fov(hfov, 640, 480, np.asarray(position), yaw, pitch)
 
 
-def _recording(camera, n_frames=400, outliers=0.0, seed=0, elevation=False, noise=1.0):
-    """Three people in front of the camera taking turns (one talker a frame), in the array's
-    frame; a fraction ``outliers`` of the frames hears a random direction instead."""
+def _recording(camera, n_frames=400, outliers=0.0, seed=0, elevation=False, noise=1.0,
+               sway_deg=6.0, turns=(0, 1, 2)):
+    """Three people in front of the camera taking turns (one talker a frame, ``turns`` in
+    order, 40 frames each), in the array's frame, swaying ``sway_deg``; a fraction
+    ``outliers`` of the frames hears a random direction instead."""
     rng = np.random.default_rng(seed)
     yaw = camera.yaw_deg
     az = yaw + np.array([-24.0, -8.0, 19.0])
@@ -31,7 +33,7 @@ def _recording(camera, n_frames=400, outliers=0.0, seed=0, elevation=False, nois
     frames, ids, boxes, azs, els = [], [], [], [], []
     for t in range(n_frames):
         # people sway a little, the talker changes every 40 frames
-        a = az + 6.0 * np.sin(0.02 * t + np.arange(3))
+        a = az + sway_deg * np.sin(0.02 * t + np.arange(3))
         pts = np.column_stack([dist * np.cos(np.deg2rad(a)), dist * np.sin(np.deg2rad(a)),
                                height])
         b = camera.head_box(pts)
@@ -40,7 +42,7 @@ def _recording(camera, n_frames=400, outliers=0.0, seed=0, elevation=False, nois
                 frames.append(t + 1)
                 ids.append(i + 1)
                 boxes.append(b[i])
-        talker = (t // 40) % 3
+        talker = turns[(t // 40) % len(turns)]
         p = pts[talker]
         if rng.random() < outliers:
             azs.append(np.array([rng.uniform(-180, 180)]))
@@ -78,6 +80,26 @@ def test_fit_is_robust_to_30_percent_outliers():
     assert abs(fit.camera.yaw_deg + 40.0) < 1.0
     assert abs(fit.camera.fx / cam.fx - 1.0) < 0.05
     assert fit.n_inliers < 0.8 * fit.n_directions
+
+
+def test_fit_finds_the_camera_of_people_standing_still():
+    """Still people are heard exactly where the true camera puts their boxes: a score that
+    discounts matches by how often each direction is heard (chance) gave the true camera no
+    more than any other, and picked a wrong one."""
+    cam = _true_camera(yaw=15.0, hfov=60.0)
+    fit = fit_camera(_recording(cam, sway_deg=0.0, outliers=0.2, seed=3), position=cam.position)
+    assert abs(fit.camera.yaw_deg - 15.0) < 1.0
+    assert abs(fit.camera.fx / cam.fx - 1.0) < 0.05
+
+
+def test_fit_does_not_collapse_the_boxes_onto_the_talker_heard_most():
+    """One person talks four times as long as the others: a camera of a tiny field of view
+    putting every box on that person's direction would match most directions."""
+    cam = _true_camera(yaw=-30.0, hfov=70.0)
+    ev = _recording(cam, n_frames=480, seed=2, turns=(1, 1, 1, 1, 0, 2))
+    fit = fit_camera(ev, position=cam.position)
+    assert abs(fit.camera.yaw_deg + 30.0) < 1.0
+    assert abs(fit.camera.fx / cam.fx - 1.0) < 0.05
 
 
 def test_too_little_evidence_is_a_clear_error():
@@ -126,10 +148,10 @@ def _dense_search(ev, pitch_deg):
     """``_search`` written over whole (pairs x yaws) arrays."""
     import math
 
-    from avtrack.av.calibrate import MATCH_DEG, _chance, predicted_directions
+    from avtrack.av.calibrate import MATCH_DEG, _starts, predicted_directions
     from avtrack.io.doa import wrap_azimuth
 
-    starts, near = _chance(ev)
+    starts = _starts(ev.direction)
     yaws = np.arange(-180.0, 180.0, 1.0)
     best, best_score = (0.0, 1.0, -1), -np.inf
     for hfov in np.arange(20.0, 151.0, 5.0):
@@ -137,13 +159,18 @@ def _dense_search(ev, pitch_deg):
         g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
         off = wrap_azimuth(ev.azimuth_deg - g)
         hit = np.abs(wrap_azimuth(off[:, None] - yaws[None, :])) < MATCH_DEG
-        hits = np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0)
-        cell = np.floor(g[:, None] + yaws[None, :] + 180.0).astype(np.int64) % 360
-        chance = np.minimum(np.add.reduceat(near[cell], starts, axis=0), 1.0).sum(axis=0)
-        score = hits - chance
+        k = np.add.reduceat(hit.astype(np.int64), starts, axis=0)  # boxes each direction hits
+        score = np.where(k > 0, 1.0 / np.maximum(k, 1), 0.0).sum(axis=0)
+        first = ev.azimuth_deg[starts]
+        mean = np.degrees(np.arctan2(np.sin(np.radians(first)).sum(),
+                                     np.cos(np.radians(first)).sum()))
+        heard = wrap_azimuth(first - mean)
+        span = np.array([np.ptp(heard[k[:, y] > 0]) if np.any(k[:, y] > 0) else -np.inf
+                         for y in range(yaws.size)])
+        score = np.where(span >= 2.0 * MATCH_DEG, score, -np.inf)
         j = int(np.argmax(score))
-        if score[j] > best_score:
-            best_score, best = float(score[j]), (float(yaws[j]), f, int(hits[j]))
+        if np.isfinite(score[j]) and score[j] > best_score:
+            best_score, best = float(score[j]), (float(yaws[j]), f, int((k > 0).sum(axis=0)[j]))
     return best
 
 

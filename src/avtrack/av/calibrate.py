@@ -31,8 +31,7 @@ Fit.
 1. Exhaustive search (camera at the array's centre, where the yaw only adds to every
    predicted azimuth): yaw every degree, focal lengths of horizontal fields of view 20-150
    degrees; the score of a hypothesis is the number of audio directions within
-   :data:`MATCH_DEG` of a box, less the number expected by chance (from how often the
-   recording's audio directions fall near the predicted boxes).
+   :data:`MATCH_DEG` of a box of their frame, each shared among the boxes it matches.
 2. Least squares with a Cauchy loss from the best hypothesis (``scipy.optimize.least_squares``),
    each audio direction re-associated with its nearest box between rounds; then the inliers
    (residual within 3 robust standard deviations) refitted with a plain quadratic loss.
@@ -230,26 +229,22 @@ def _nearest(ev: CameraEvidence, resid: np.ndarray) -> np.ndarray:
     return order[starts]
 
 
-def _chance(ev: CameraEvidence) -> tuple[np.ndarray, np.ndarray]:
-    """The first pair of each audio direction ``(N,)`` and the share of the audio directions
-    within :data:`MATCH_DEG` of each whole degree of azimuth ``(360,)`` (from -180)."""
-    starts = _starts(ev.direction)
-    first = ev.azimuth_deg[starts]
-    hist = np.bincount(np.floor(first + 180.0).astype(np.int64) % 360, minlength=360)
-    win = round(MATCH_DEG)
-    near = sum(np.roll(hist, k) for k in range(-win, win + 1)) / max(first.shape[0], 1)
-    return starts, near
-
-
 def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
-    """Yaw and focal length of the hypothesis whose matches most exceed chance, and its number
-    of matched audio directions (camera at the array's centre).
+    """Yaw and focal length of the hypothesis that explains the most audio directions, and its
+    number of matched audio directions (camera at the array's centre).
 
-    A direction matches when a box of its frame is predicted within :data:`MATCH_DEG`. Its
-    chance of matching is the share of all the recording's audio directions within
-    :data:`MATCH_DEG` of the frame's predicted boxes: without it, a camera of a tiny field of
-    view that puts every box on the direction heard most would win."""
-    starts, near = _chance(ev)
+    A direction matches when a box of its frame is predicted within :data:`MATCH_DEG`; it
+    counts ``1 / k`` when ``k`` boxes of its frame are: a camera of a tiny field of view that
+    puts every box on the direction heard most gains nothing from matching that direction with
+    all of them. (A score of matches less those expected from how often each direction is
+    heard fails where people stand still: the true camera puts the boxes exactly where the
+    directions are heard, and its matches are then all "expected".)"""
+    starts = _starts(ev.direction)
+    # each direction's azimuth, unwrapped around the circular mean of all of them
+    first = ev.azimuth_deg[starts]
+    mean = math.degrees(math.atan2(np.sin(np.radians(first)).sum(),
+                                   np.cos(np.radians(first)).sum())) if first.size else 0.0
+    heard = wrap_azimuth(first - mean)
     yaws = np.arange(-180.0, 180.0, 1.0)
     best = (0.0, 1.0, -1)
     best_score = -np.inf
@@ -257,17 +252,22 @@ def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
         f = 0.5 * ev.width / math.tan(math.radians(hfov) / 2.0)
         g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
         off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
-        hits, chance = [], []
+        hits, scores = [], []
         for y0 in range(0, yaws.size, _YAW_CHUNK):  # (pairs x yaws arrays, a slice at a time)
             yaw = yaws[None, y0 : y0 + _YAW_CHUNK]
             hit = np.abs(wrap_azimuth(off[:, None] - yaw)) < MATCH_DEG
-            hits.append(np.maximum.reduceat(hit.view(np.uint8), starts, axis=0).sum(axis=0))
-            cell = np.floor(g[:, None] + yaw + 180.0).astype(np.int64) % 360
-            chance.append(np.minimum(np.add.reduceat(near[cell], starts, axis=0), 1.0)
-                          .sum(axis=0))
-        score = np.concatenate(hits) - np.concatenate(chance)
+            k = np.add.reduceat(hit.view(np.uint8), starts, axis=0, dtype=np.int64)
+            matched = k > 0
+            hits.append(matched.sum(axis=0))
+            score = (1.0 / np.maximum(k, 1) * matched).sum(axis=0)
+            # the directions matched must span more than a match: a field of view so narrow
+            # that every box lands on one direction measures no focal length
+            span = (np.where(matched, heard[:, None], -np.inf).max(axis=0, initial=-np.inf)
+                    - np.where(matched, heard[:, None], np.inf).min(axis=0, initial=np.inf))
+            scores.append(np.where(span >= 2.0 * MATCH_DEG, score, -np.inf))
+        score = np.concatenate(scores)
         j = int(np.argmax(score))
-        if score[j] > best_score:
+        if np.isfinite(score[j]) and score[j] > best_score:
             best_score = float(score[j])
             best = (float(yaws[j]), f, int(np.concatenate(hits)[j]))
     return best
