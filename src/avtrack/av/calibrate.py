@@ -31,7 +31,9 @@ Fit.
 1. Exhaustive search (camera at the array's centre, where the yaw only adds to every
    predicted azimuth): yaw every degree, focal lengths of horizontal fields of view 20-150
    degrees; the score of a hypothesis is the number of audio directions within
-   :data:`MATCH_DEG` of a box of their frame, each shared among the boxes it matches.
+   :data:`MATCH_DEG` of a box of their frame, each shared among the boxes it matches; a
+   hypothesis whose matched directions span no more than two match windows measures no focal
+   length and is passed over.
 2. Least squares with a Cauchy loss from the best hypothesis (``scipy.optimize.least_squares``),
    each audio direction re-associated with its nearest box between rounds; then the inliers
    (residual within 3 robust standard deviations) refitted with a plain quadratic loss.
