@@ -83,16 +83,15 @@ Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge
                      "colour histograms of the detection boxes (hue-saturation-value, the inner "
                      "part of each box) become the appearance (thesis eq. 3.5, Bhattacharyya "
                      "likelihood) and re-identify targets that ended lately "
-                     "(appearance_lambda 10, reid_log_ratio 0.4, reid_max_age 25, "
-                     "reid_max_distance 4 unless --config says otherwise); image size and "
-                     "length from the video")
+                     f"({_settings(mot.VIDEO_DEFAULTS)} unless --config says otherwise); image "
+                     "size and length from the video")
     p.add_argument("--detector", metavar="NAME",
                    help="without DET.txt: detect people in --video's frames with a built-in "
                    f"detector ({', '.join(DETECTORS)}; default {DEFAULT_PERSON_DETECTOR}, "
                    "people walking, from the avtrack[detectors] extra) or your own as "
                    "module:attribute (an object or factory with detect(frame) -> (boxes ltwh "
                    "(M, 4), scores (M,))); its boxes with low scores show targets as the others "
-                   "do (weak_evidence 1 unless --config says otherwise)")
+                   f"do ({_settings(mot.DETECTOR_DEFAULTS)} unless --config says otherwise)")
     p.add_argument("--report", type=Path, metavar="DIR",
                    help="with --video: write DIR/index.html, DIR/tracks.mp4 and tracks.webm, the "
                    "tracks drawn over the video's own frames (with the scores and the ground "
@@ -130,6 +129,11 @@ def parse_image_size(text: str) -> tuple[int, int]:
     if not m or int(m[1]) <= 0 or int(m[2]) <= 0:
         raise InputError(f"--image-size must look like 640x480, got {text!r}")
     return int(m[1]), int(m[2])
+
+
+def _settings(fields: dict) -> str:
+    """``name value, ...`` of a dict of OVBTConfig overrides, for the help."""
+    return ", ".join(f"{k} {v:g}" for k, v in fields.items())
 
 
 def detect_in_video(video_path: Path, spec: str, quiet: bool):
