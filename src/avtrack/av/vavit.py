@@ -125,7 +125,10 @@ class VAVITConfig:
         :math:`\\gamma` of eq. 4.34.
     """
 
-    visual: OVBTConfig = field(default_factory=lambda: OVBTConfig(appearance="cosine"))
+    #: weak detections show targets as strong ones do (``weak_evidence`` 1), as in
+    #: :class:`~avtrack.av.persons.PersonConfig`: the boxes come from a detector run on the frames
+    visual: OVBTConfig = field(
+        default_factory=lambda: OVBTConfig(appearance="cosine", weak_evidence=1.0))
     sigma_scale: float = 4.0
     audio_log_clutter: float | None = None
     audio_clutter_distance: float | None = None
