@@ -6,7 +6,7 @@ six files one after the other, as many times as needed; 16-bit PCM like the orig
 the WAV, head detections at 25 fps and a camera file) on each length in a fresh process, and
 prints the process's peak resident memory (``ru_maxrss``) with the ratio of each length's peak
 to the shortest one's. An 8-microphone recording is made the same way from a free-field simulation
-when ``--eight`` is given.
+when ``--eight`` is given (one ring of AV16.3: 8 microphones, radius 10 cm).
 
     python benchmarks/bench_memory.py --minutes 1 10
     python benchmarks/bench_memory.py --minutes 1 10 --commands track-av
@@ -123,16 +123,23 @@ def real_sources() -> tuple[list[np.ndarray], int, Path]:
     return xs, fs, SHARED / "respeaker4.json"
 
 
-def eight_sources() -> tuple[list[np.ndarray], int, str]:
-    """A 30 s simulated meeting recorded by the built-in 8-microphone circle ``av163``."""
+def eight_sources(work: Path) -> tuple[list[np.ndarray], int, str]:
+    """A 30 s simulated meeting recorded by an 8-microphone circle: one of AV16.3's two rings
+    (radius 10 cm), written to ``work`` as an array file (the built-in ``av163`` is both rings,
+    16 microphones)."""
+    from avtrack.audio.arrays import AV163_RADIUS, MicArray, write_array_json
     from avtrack.io.scenario import validate_scenario
     from avtrack.simulate.library import named_scenario
     from avtrack.simulate.scene import simulate_scene
 
+    phi = np.deg2rad(45.0 * np.arange(8))
+    ring = AV163_RADIUS * np.stack([np.cos(phi), np.sin(phi), np.zeros(8)], axis=1)
+    path = work / "circle8.json"
+    write_array_json(path, MicArray("circle8", ring))
     raw = named_scenario("meeting", 0, 30.0)
-    raw["array"] = {**raw["array"], "name": "av163", "hrir": False}
+    raw["array"] = {**raw["array"], "name": str(path), "hrir": False}
     scene = simulate_scene(validate_scenario(raw))
-    return [scene.audio / max(1.0, float(np.abs(scene.audio).max()) * 1.01)], 16000, "av163"
+    return [scene.audio / max(1.0, float(np.abs(scene.audio).max()) * 1.01)], 16000, str(path)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -149,7 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         work = Path(tmp)
         sets = [] if args.eight_only else [("ReSpeaker 4-mic (real, repeated)", *real_sources())]
         if args.eight or args.eight_only:
-            sets.append(("AV16.3 8-mic circle (simulated, repeated)", *eight_sources()))
+            sets.append(("8-mic circle, AV16.3 ring (simulated, repeated)", *eight_sources(work)))
         print("| recording | command | minutes | peak RSS (MB) | vs shortest | wall (s) | RF |")
         print("|---|---|---:|---:|---:|---:|---:|")
         for label, sources, fs, array in sets:

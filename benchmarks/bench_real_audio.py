@@ -24,6 +24,8 @@ Usage::
     python benchmarks/bench_real_audio.py                      # all recordings, all methods
     python benchmarks/bench_real_audio.py --markdown real.md   # also write the tables
     python benchmarks/bench_real_audio.py --methods dprtf-eg-fast prp-rem --no-trackers
+    python benchmarks/bench_real_audio.py --simulated $(seq 0 7) --duration 8 --max-talkers 1 \\
+        --array benchmarks/arrays/circle8-r46mm.json       # one talker, an 8-mic circle
 """
 
 from __future__ import annotations
@@ -80,10 +82,12 @@ class Recording:
         return array, read_array_audio(self.path, array, quiet=True)
 
 
-def simulated_recordings(seeds: list[int], duration: float) -> list[Recording]:
+def simulated_recordings(seeds: list[int], duration: float, array: str | None = None,
+                         max_talkers: int | None = None) -> list[Recording]:
     """``array-talkers`` scenes (:mod:`avtrack.simulate.library`); the talkers who speak at
     least ``MIN_SPEECH_S`` seconds, at their mean ground-truth direction; labelled with the
-    talkers' distance."""
+    talkers' distance. ``array``: another array than the scene's ReSpeaker (a built-in name or
+    an array file); ``max_talkers``: only the scene's first talkers."""
     from avtrack.io.scenario import validate_scenario
     from avtrack.simulate.library import named_scenario
     from avtrack.simulate.scene import simulate_scene
@@ -91,6 +95,10 @@ def simulated_recordings(seeds: list[int], duration: float) -> list[Recording]:
     out = []
     for seed in seeds:
         raw = named_scenario("array-talkers", seed, duration)
+        if array is not None:
+            raw["array"]["name"] = array
+        if max_talkers is not None:
+            raw["people"] = raw["people"][:max_talkers]
         scene = simulate_scene(validate_scenario(raw))
         gt = scene.doa
         talkers = []
@@ -195,10 +203,21 @@ def main(argv: list[str] | None = None) -> int:
                    "seeds (the same array, 1-3 talkers at 0.5-2.5 m, the recordings' noise)")
     p.add_argument("--duration", type=float, default=6.0,
                    help="seconds per simulated scene (default 6)")
+    p.add_argument("--array", metavar="NAME|ARRAY.json",
+                   help="with --simulated: this array instead of the ReSpeaker (a built-in name "
+                   "or an array file)")
+    p.add_argument("--max-talkers", type=int, metavar="N",
+                   help="with --simulated: at most the scene's first N talkers")
     args = p.parse_args(argv)
+    if (args.array or args.max_talkers) and not args.simulated:
+        p.error("--array and --max-talkers need --simulated")
+    if args.max_talkers is not None and args.max_talkers < 1:
+        p.error(f"--max-talkers must be >= 1, got {args.max_talkers}")
     if args.simulated:
-        return report(simulated_recordings(args.simulated, args.duration), args,
-                      f"Simulated 'array-talkers' scenes, seeds {args.simulated}")
+        recs = simulated_recordings(args.simulated, args.duration, args.array, args.max_talkers)
+        return report(recs, args, f"Simulated 'array-talkers' scenes, seeds {args.simulated}"
+                      + (f", array {args.array}" if args.array else "")
+                      + (f", at most {args.max_talkers} talkers" if args.max_talkers else ""))
     if not args.root.is_dir():
         print(f"no recordings: {args.root} is not a folder (shared data absent?)",
               file=sys.stderr)
