@@ -1,5 +1,5 @@
 """What the benchmark scripts share: where the repository and the shared data are, and how a
-``--seeds`` option reads."""
+``--seeds`` and a ``--set`` option read."""
 
 from __future__ import annotations
 
@@ -24,3 +24,44 @@ def parse_seeds(text: str) -> list[int]:
         lo, hi = (int(x) for x in text.split("-"))
         return list(range(lo, hi + 1))
     return [int(x) for x in text.split(",")]
+
+
+def overrides(items: list[str]) -> dict:
+    """``["dprtf-eg:variance=0.05", ...]`` (a ``--set`` option) -> ``{method: config}`` built
+    from each method's default configuration with the fields replaced (nested
+    ``dprtf.FIELD`` too)."""
+    import dataclasses
+
+    from avtrack.localize.cgmm_eg import EGConfig, FastEGConfig
+    from avtrack.localize.rem import PRPREMConfig, REMConfig
+
+    defaults = {"dprtf-eg": EGConfig, "dprtf-eg-fast": FastEGConfig, "dprtf-rem": REMConfig,
+                "prp-rem": PRPREMConfig}
+    changes: dict[str, dict[str, dict]] = {}
+    for item in items:
+        method, sep, rest = item.partition(":")
+        field, eq, value = rest.partition("=")
+        if not (sep and eq) or method not in defaults:
+            raise ValueError(f"--set {item!r}: expected METHOD:FIELD=VALUE with METHOD one of "
+                             f"{sorted(defaults)}")
+        outer, dot, inner = field.partition(".")
+        key = ("dprtf", inner) if dot else ("", outer)
+        changes.setdefault(method, {}).setdefault(key[0], {})[key[1]] = _number(value)
+    configs = {}
+    for method, parts in changes.items():
+        cfg = defaults[method]()
+        try:
+            if "dprtf" in parts:
+                cfg = dataclasses.replace(cfg, dprtf=dataclasses.replace(cfg.dprtf,
+                                                                         **parts["dprtf"]))
+            configs[method] = dataclasses.replace(cfg, **parts.get("", {}))
+        except TypeError as exc:
+            raise ValueError(f"--set {method}: {exc}") from None
+    return configs
+
+
+def _number(text: str) -> int | float:
+    try:
+        return int(text)
+    except ValueError:
+        return float(text)

@@ -46,7 +46,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.signal  # noqa: E402
 
-from _common import shared_data_dir  # noqa: E402
+from _common import overrides, shared_data_dir  # noqa: E402
 from avtrack.audio.arrays import MicArray, builtin_array, load_array  # noqa: E402
 from avtrack.io.base import atomic_write  # noqa: E402
 from avtrack.io.doa import read_doa_csv  # noqa: E402
@@ -254,45 +254,6 @@ def markdown(speed_rows, acc_rows, scenes, args) -> str:
             for r in acc_rows
         ]
     return "\n".join(lines) + "\n"
-
-
-def overrides(items: list[str]) -> dict:
-    """``["dprtf-eg:variance=0.05", ...]`` -> ``{method: config}`` built from each method's
-    default configuration with the fields replaced (nested ``dprtf.FIELD`` too)."""
-    import dataclasses
-
-    from avtrack.localize.cgmm_eg import EGConfig
-    from avtrack.localize.rem import PRPREMConfig, REMConfig
-
-    defaults = {"dprtf-eg": EGConfig, "dprtf-rem": REMConfig, "prp-rem": PRPREMConfig}
-    changes: dict[str, dict[str, dict]] = {}
-    for item in items:
-        method, sep, rest = item.partition(":")
-        field, eq, value = rest.partition("=")
-        if not (sep and eq) or method not in defaults:
-            raise ValueError(f"--set {item!r}: expected METHOD:FIELD=VALUE with METHOD one of "
-                             f"{sorted(defaults)}")
-        outer, dot, inner = field.partition(".")
-        key = ("dprtf", inner) if dot else ("", outer)
-        changes.setdefault(method, {}).setdefault(key[0], {})[key[1]] = _number(value)
-    configs = {}
-    for method, parts in changes.items():
-        cfg = defaults[method]()
-        try:
-            if "dprtf" in parts:
-                cfg = dataclasses.replace(cfg, dprtf=dataclasses.replace(cfg.dprtf,
-                                                                         **parts["dprtf"]))
-            configs[method] = dataclasses.replace(cfg, **parts.get("", {}))
-        except TypeError as exc:
-            raise ValueError(f"--set {method}: {exc}") from None
-    return configs
-
-
-def _number(text: str) -> int | float:
-    try:
-        return int(text)
-    except ValueError:
-        return float(text)
 
 
 def main(argv: list[str] | None = None) -> int:

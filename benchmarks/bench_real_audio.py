@@ -46,6 +46,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import overrides  # noqa: E402
 from avtrack.audio.arrays import MicArray, load_array  # noqa: E402
 from avtrack.audio.recording import read_array_audio  # noqa: E402
 from avtrack.doa import TRACKERS  # noqa: E402
@@ -57,6 +58,8 @@ DEFAULT_ROOT = Path(__file__).resolve().parents[2] / "shared" / "data" / "realau
 DEFAULT_METHOD = "dprtf-eg-fast"
 GATE_DEG = 20.0
 MIN_SPEECH_S = 1.0  # simulated talkers who speak less are not counted
+#: localizer configurations other than the defaults (``--set``), by method
+CONFIGS: dict[str, object] = {}
 TALKER = re.compile(r"a(-?\d+(?:\.\d+)?)e(-?\d+(?:\.\d+)?)")
 
 
@@ -139,7 +142,7 @@ def angle_error(a: np.ndarray, b: float) -> np.ndarray:
 
 
 def localizer_scores(rec: Recording, array: MicArray, x: np.ndarray, method: str) -> dict:
-    loc = make_localizer(method, array)
+    loc = make_localizer(method, array, config=CONFIGS.get(method))
     t0 = time.perf_counter()
     heat = loc.run(x)
     elapsed = time.perf_counter() - t0
@@ -162,7 +165,8 @@ def localizer_scores(rec: Recording, array: MicArray, x: np.ndarray, method: str
 
 def tracker_scores(rec: Recording, array: MicArray, x: np.ndarray, tracker: str,
                    min_active: int) -> dict:
-    stream = DOAStream(array, method=DEFAULT_METHOD, tracker=tracker)
+    stream = DOAStream(array, method=DEFAULT_METHOD, tracker=tracker,
+                       method_config=CONFIGS.get(DEFAULT_METHOD))
     outs = stream.push(x)
     by_id: dict[int, list[float]] = {}
     for out in outs:
@@ -208,7 +212,14 @@ def main(argv: list[str] | None = None) -> int:
                    "or an array file)")
     p.add_argument("--max-talkers", type=int, metavar="N",
                    help="with --simulated: at most the scene's first N talkers")
+    p.add_argument("--set", action="append", default=[], metavar="METHOD:FIELD=VALUE",
+                   help="override one field of a localizer's configuration (for dprtf-eg-fast "
+                   "also the trackers' maps), e.g. dprtf-eg-fast:still_prior=0.3 (repeatable)")
     args = p.parse_args(argv)
+    try:
+        CONFIGS.update(overrides(args.set))
+    except ValueError as exc:
+        p.error(str(exc))
     if (args.array or args.max_talkers) and not args.simulated:
         p.error("--array and --max-talkers need --simulated")
     if args.max_talkers is not None and args.max_talkers < 1:

@@ -54,6 +54,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import datetime as dt  # noqa: E402
+import hashlib  # noqa: E402
 import platform  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -63,6 +64,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from _common import overrides  # noqa: E402
 from avtrack.audio.arrays import load_array  # noqa: E402
 from avtrack.audio.recording import read_array_audio  # noqa: E402
 from avtrack.doa.base import (  # noqa: E402
@@ -98,6 +100,8 @@ TRACKERS = (
 )
 #: Heat maps the trackers run on: the default pipeline's first, then the thesis's.
 TRACKER_MAPS = ("dprtf-eg-fast", "dprtf-eg")
+#: localizer configurations other than the defaults (``--set``), by method
+CONFIGS: dict[str, object] = {}
 DATASETS = (
     ("locata-like", "Table 5.1 (LOCATA-like)"),
     ("kinovis-like", "Table 5.2 (Kinovis-like)"),
@@ -138,15 +142,17 @@ def heatmaps(d: Path, method: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
 def _heat_cache(d: Path, method: str):
     """The cached localizer run of a scene (``w``, ``t``, ``f``, ``elapsed``, ``duration`` and
-    ``evidence``, which frames updated the map), computed once."""
-    cache = d / f"heat-{method}.npz"
+    ``evidence``, which frames updated the map), computed once (per ``--set`` configuration)."""
+    config = CONFIGS.get(method)
+    tag = "" if config is None else "-" + hashlib.sha1(repr(config).encode()).hexdigest()[:10]
+    cache = d / f"heat-{method}{tag}.npz"
     if cache.is_file():
         z = np.load(cache)
         if "evidence" in z:
             return z
     array = load_array(d / "array.json")
     x = read_array_audio(d / "audio.wav", array, quiet=True)
-    loc = make_localizer(method, array, DirectionGrid.azimuths())
+    loc = make_localizer(method, array, DirectionGrid.azimuths(), config)
     t0 = time.process_time()
     h = loc.run(x)
     elapsed = time.process_time() - t0
@@ -439,11 +445,11 @@ def pipeline_speed(workdir: Path, duration: float) -> list[str]:
         "|---|---:|---:|---:|",
     ]
     # warm-up: the first DP-RTF run in a process loads (or compiles) its Numba kernel
-    warm = make_localizer(TRACKER_MAPS[0], array, grid)
+    warm = make_localizer(TRACKER_MAPS[0], array, grid, CONFIGS.get(TRACKER_MAPS[0]))
     warm.run(x[:, : int(warm.fs)])
     for method in TRACKER_MAPS:
         for name in ("gauss", "vonmises"):
-            loc = make_localizer(method, array, grid)
+            loc = make_localizer(method, array, grid, CONFIGS.get(method))
             t0 = time.process_time()
             h = loc.run(x)
             t_loc = time.process_time() - t0
@@ -479,7 +485,14 @@ def main(argv: list[str] | None = None) -> int:
                    help="heat maps the trackers run on (default: both)")
     p.add_argument("--trackers", nargs="+", default=[n for _, n in TRACKERS],
                    choices=[n for _, n in TRACKERS], help="trackers to score (default: all)")
+    p.add_argument("--set", action="append", default=[], metavar="METHOD:FIELD=VALUE",
+                   help="override one field of a localizer's configuration, for its scores and "
+                   "the maps the trackers read, e.g. dprtf-eg-fast:still_prior=0.3 (repeatable)")
     args = p.parse_args(argv)
+    try:
+        CONFIGS.update(overrides(args.set))
+    except ValueError as exc:
+        p.error(str(exc))
     tmp = None
     if args.workdir is None:
         tmp = tempfile.TemporaryDirectory(prefix="avtrack-bench-")

@@ -434,6 +434,18 @@ class EGConfig:
     velocity_switch : float
         Share of each layer's mass handed to the other layers every frame (equally), the
         chance of a change of velocity.
+    still_prior : float or None
+        With velocity layers: where the velocity switch sends the mass it moves. None: to the
+        other layers equally, so that without evidence every layer holds the same share (with
+        five layers, four fifths of a talker's mass move). A share in (0, 1): the switch
+        spreads a direction's mass over the layers in these proportions, this share to the
+        zero-velocity layer and the rest equally to the moving ones (the stationary
+        distribution of the layers' Markov chain, as in an IMM filter's transition matrix:
+        Li and Jilkov 2005). A moving layer then holds mass only as long as the features
+        follow it, and the peaks of a standing talker in a reverberant room no longer wander
+        along the moving layers; a talker who moves steadily, though, is trailed by the mass
+        the still layer keeps behind it, so this is an option for seated talkers (meetings),
+        not the default (BENCHMARKS.md, acoustic tracking).
     presence_reach : int
         ``r`` of :func:`place_presence`, in azimuth cells: the masses are summed within ``r``
         cells and the largest taken within ``r`` cells more, so the slow weights may trail a
@@ -467,6 +479,7 @@ class EGConfig:
     position_velocities_deg_s: tuple[float, ...] | None = None
     still_smoothing: float | None = None
     velocity_switch: float = 0.01
+    still_prior: float | None = None
     presence_reach: int = 3
     presence_by_peak: bool = False
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
@@ -497,6 +510,11 @@ class EGConfig:
                     f"numbers, got {self.position_velocities_deg_s!r}"
                 )
             object.__setattr__(self, "position_velocities_deg_s", tuple(float(x) for x in vel))
+        if self.still_prior is not None and (
+                isinstance(self.still_prior, bool) or not isinstance(self.still_prior, int | float)
+                or not 0.0 < self.still_prior < 1.0):
+            raise ValueError(f"EGConfig: still_prior must be None or in (0, 1), "
+                             f"got {self.still_prior!r}")
         if self.still_smoothing is not None:
             _positive("EGConfig", "still_smoothing", self.still_smoothing, allow_zero=True)
             if self.still_smoothing > 1:
@@ -621,6 +639,13 @@ class DPRTFEG(CGMMLocalizer):
         if self.config.still_smoothing is not None:
             walk[self._drift_cells == 0] = self.config.still_smoothing
         self._walk = walk[:, None]
+        #: the velocity switch's destination shares (U, 1), or None: the other layers equally
+        self._switch_to: np.ndarray | None = None
+        still = self._drift_cells == 0
+        if self.config.still_prior is not None and still.any() and not still.all():
+            self._switch_to = np.where(still, self.config.still_prior / np.count_nonzero(still),
+                                       (1.0 - self.config.still_prior) / np.count_nonzero(~still)
+                                       )[:, None]
         #: position weights per velocity layer v_{u,t} (U, D)
         self.position_layers = np.full((u_, self.grid.size), 1.0 / (u_ * self.grid.size))
         self.position = self.weights.copy()  #: position weights v_t (D,)
@@ -673,7 +698,10 @@ class DPRTFEG(CGMMLocalizer):
         u_ = layers.shape[0]
         if u_ > 1 and cfg.velocity_switch:
             rho = cfg.velocity_switch
-            layers = (1.0 - rho) * layers + rho * (layers.sum(axis=0) - layers) / (u_ - 1)
+            if self._switch_to is None:  # to the other layers equally
+                layers = (1.0 - rho) * layers + rho * (layers.sum(axis=0) - layers) / (u_ - 1)
+            else:  # spread by the layers' stationary shares
+                layers = (1.0 - rho) * layers + rho * self._switch_to * layers.sum(axis=0)
         self.position_layers = layers
         return layers.sum(axis=0)
 
