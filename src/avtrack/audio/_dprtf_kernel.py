@@ -30,6 +30,7 @@ import importlib.util
 import os
 import warnings
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -68,12 +69,9 @@ def kernel() -> Callable[..., bool] | None:
             # finite values, since a non-positive pivot must still be detected
             fast = {"reassoc", "contract", "arcp", "nsz"}
             try:
-                jit = njit(SIGNATURE, cache=True, nogil=True, fastmath=fast)
-                _KERNEL = jit(update_and_solve)
+                _KERNEL = _compile(njit, fast, cache=True)
             except RuntimeError:  # no writable cache location (read-only install and home)
-                _KERNEL = njit(SIGNATURE, cache=False, nogil=True, fastmath=fast)(
-                    update_and_solve
-                )
+                _KERNEL = _compile(njit, fast, cache=False)
         except Exception as exc:  # any failure to build: fall back to NumPy, loudly
             _FAILED = True
             warnings.warn(
@@ -83,6 +81,17 @@ def kernel() -> Callable[..., bool] | None:
                 stacklevel=2,
             )
     return _KERNEL
+
+
+def _compile(njit: Callable[..., Any], fastmath: set[str], cache: bool) -> Callable[..., bool]:
+    """:func:`update_and_solve` compiled for :data:`SIGNATURE`, its per-bin steps first (each
+    for its own signature, and bound in this module's namespace, where the compiled
+    :func:`update_and_solve` looks them up)."""
+    for name, signature in _STEP_SIGNATURES.items():
+        # inlined where called (Numba IR): the same machine code as one function
+        globals()[name] = njit(signature, cache=cache, nogil=True, fastmath=fastmath,
+                               inline="always")(_PY_STEPS[name])
+    return njit(SIGNATURE, cache=cache, nogil=True, fastmath=fastmath)(update_and_solve)
 
 
 def update_and_solve(
@@ -124,7 +133,6 @@ def update_and_solve(
     """
     n_s, q_, i_ = v.shape
     n = q_ * i_
-    tiny = np.finfo(np.float64).tiny
     u = np.empty(n, dtype=np.complex128)
     smat = np.empty((q_, q_), dtype=np.complex128)
     # the factor L = lr + i li, split so that the dot products below vectorise
@@ -133,76 +141,111 @@ def update_and_solve(
     y = np.empty(i_, dtype=np.complex128)
     ok = True
     for b in range(n_s):
-        f = s[b]
-        rf = r[f]
-        for q in range(q_):
-            for k in range(i_):
-                u[q * i_ + k] = v[b, q, k]
-        trace_s = 0.0
-        for q in range(q_):
-            for p in range(q_):
-                acc = 0j
-                for j in range(i_):
-                    acc += np.conj(v[b, q, j]) * v[b, p, j]
-                smat[q, p] = acc
-            trace_s += smat[q, q].real
-        trace_u = (i_ - 1) * trace_s
-        ridge = loading * trace_u / n
-        a = age[b]
-        if new[b]:
-            ridge += regularization * trace_u
-            for row in range(n):
-                for col in range(row + 1):
-                    rf[row, col] = 0j
-        ridge = max(ridge, tiny)
-        # R <- a R + U on the lower triangle: row (q, k), column (p, l), p I + l <= q I + k
-        for q in range(q_):
-            for k in range(i_):
-                row = q * i_ + k
-                uk = u[k::i_]  # v[:, k]
-                for p in range(q + 1):
-                    l_end = i_ if p < q else k + 1
-                    for l_ in range(l_end):
-                        col = p * i_ + l_
-                        val = a * rf[row, col] - np.conj(u[q * i_ + l_]) * uk[p]
-                        if l_ == k:
-                            val += smat[q, p]
-                        rf[row, col] = val
-                rf[row, row] += ridge
-        if not enough[b]:
-            continue
-        # Cholesky R = L L^H (lower, split into real and imaginary parts), left-looking: entry
-        # (i, j) needs the dot product of rows i and j of L over the columns < j (contiguous)
-        for j in range(n):
-            d = rf[j, j].real
-            for m in range(j):
-                d -= lr[j, m] * lr[j, m] + li[j, m] * li[j, m]
-            if not d > 0.0:
-                ok = False
-                d = tiny
-            dj = np.sqrt(d)
-            lr[j, j] = dj
-            li[j, j] = 0.0
-            inv = 1.0 / dj
-            for i in range(j + 1, n):
-                re = rf[i, j].real
-                im = rf[i, j].imag
-                for m in range(j):  # L[i, m] conj(L[j, m])
-                    re -= lr[i, m] * lr[j, m] + li[i, m] * li[j, m]
-                    im -= li[i, m] * lr[j, m] - lr[i, m] * li[j, m]
-                lr[i, j] = re * inv
-                li[i, j] = im * inv
-        # (R^{-1})_{AA} e_ref = L_AA^{-H} L_AA^{-1} e_ref, A = the last I unknowns
-        base = n - i_
-        for ref in range(2):
-            for i in range(i_):  # forward: L_AA y = e_ref
-                acc = 1.0 + 0j if i == ref else 0j
-                for m in range(i):
-                    acc -= (lr[base + i, base + m] + 1j * li[base + i, base + m]) * y[m]
-                y[i] = acc / lr[base + i, base + i]
-            for i in range(i_ - 1, -1, -1):  # backward: L_AA^H z = y
-                acc = y[i]
-                for m in range(i + 1, i_):
-                    acc -= (lr[base + m, base + i] - 1j * li[base + m, base + i]) * out[b, m, ref]
-                out[b, i, ref] = acc / lr[base + i, base + i]
+        rf = r[s[b]]
+        _update_bin(rf, v[b], u, smat, age[b], new[b], regularization, loading)
+        if enough[b]:
+            ok = _cholesky(rf, lr, li) and ok
+            _solve_refs(lr, li, y, out[b])
     return ok
+
+
+def _update_bin(
+    rf: np.ndarray, vb: np.ndarray, u: np.ndarray, smat: np.ndarray, a: float, new: bool,
+    regularization: float, loading: float,
+) -> None:
+    """``R <- a R + U`` and the ridge on the lower triangle of one bin's ``rf (n, n)`` from its
+    PSD vectors ``vb (Q, I)`` (``R = 0`` first when ``new``); ``u (n,)`` and ``smat (Q, Q)``
+    are work arrays."""
+    q_, i_ = vb.shape
+    n = q_ * i_
+    for q in range(q_):
+        for k in range(i_):
+            u[q * i_ + k] = vb[q, k]
+    trace_s = 0.0
+    for q in range(q_):
+        for p in range(q_):
+            acc = 0j
+            for j in range(i_):
+                acc += np.conj(vb[q, j]) * vb[p, j]
+            smat[q, p] = acc
+        trace_s += smat[q, q].real
+    trace_u = (i_ - 1) * trace_s
+    ridge = loading * trace_u / n
+    if new:
+        ridge += regularization * trace_u
+        for row in range(n):
+            for col in range(row + 1):
+                rf[row, col] = 0j
+    ridge = max(ridge, np.finfo(np.float64).tiny)
+    # row (q, k), column (p, l), p I + l <= q I + k
+    for q in range(q_):
+        for k in range(i_):
+            row = q * i_ + k
+            uk = u[k::i_]  # v[:, k]
+            for p in range(q + 1):
+                l_end = i_ if p < q else k + 1
+                for l_ in range(l_end):
+                    col = p * i_ + l_
+                    val = a * rf[row, col] - np.conj(u[q * i_ + l_]) * uk[p]
+                    if l_ == k:
+                        val += smat[q, p]
+                    rf[row, col] = val
+            rf[row, row] += ridge
+
+
+def _cholesky(rf: np.ndarray, lr: np.ndarray, li: np.ndarray) -> bool:
+    """``R = L L^H`` of the lower triangle of ``rf (n, n)`` into ``L = lr + i li``, left-looking:
+    entry ``(i, j)`` needs the dot product of rows ``i`` and ``j`` of ``L`` over the columns
+    ``< j`` (contiguous). False if a pivot was not positive (then ``tiny`` stands for it)."""
+    n = rf.shape[0]
+    tiny = np.finfo(np.float64).tiny
+    ok = True
+    for j in range(n):
+        d = rf[j, j].real
+        for m in range(j):
+            d -= lr[j, m] * lr[j, m] + li[j, m] * li[j, m]
+        if not d > 0.0:
+            ok = False
+            d = tiny
+        dj = np.sqrt(d)
+        lr[j, j] = dj
+        li[j, j] = 0.0
+        inv = 1.0 / dj
+        for i in range(j + 1, n):
+            re = rf[i, j].real
+            im = rf[i, j].imag
+            for m in range(j):  # L[i, m] conj(L[j, m])
+                re -= lr[i, m] * lr[j, m] + li[i, m] * li[j, m]
+                im -= li[i, m] * lr[j, m] - lr[i, m] * li[j, m]
+            lr[i, j] = re * inv
+            li[i, j] = im * inv
+    return ok
+
+
+def _solve_refs(lr: np.ndarray, li: np.ndarray, y: np.ndarray, out_b: np.ndarray) -> None:
+    """``(R^{-1})_{AA} e_ref = L_AA^{-H} L_AA^{-1} e_ref`` for refs 0 and 1 into ``out_b (I,
+    2)``, ``A`` the last ``I`` unknowns; ``y (I,)`` is a work array."""
+    i_ = y.shape[0]
+    base = lr.shape[0] - i_
+    for ref in range(2):
+        for i in range(i_):  # forward: L_AA y = e_ref
+            acc = 1.0 + 0j if i == ref else 0j
+            for m in range(i):
+                acc -= (lr[base + i, base + m] + 1j * li[base + i, base + m]) * y[m]
+            y[i] = acc / lr[base + i, base + i]
+        for i in range(i_ - 1, -1, -1):  # backward: L_AA^H z = y
+            acc = y[i]
+            for m in range(i + 1, i_):
+                acc -= (lr[base + m, base + i] - 1j * li[base + m, base + i]) * out_b[m, ref]
+            out_b[i, ref] = acc / lr[base + i, base + i]
+
+
+#: the per-bin steps as Python functions (:func:`_compile` binds compiled ones in their place)
+_PY_STEPS: dict[str, Callable[..., Any]] = {
+    "_update_bin": _update_bin, "_cholesky": _cholesky, "_solve_refs": _solve_refs}
+#: their signatures, as :func:`update_and_solve` passes them
+_STEP_SIGNATURES = {
+    "_update_bin": "void(c16[:, ::1], c16[:, ::1], c16[::1], c16[:, ::1], f8, b1, f8, f8)",
+    "_cholesky": "b1(c16[:, ::1], f8[:, ::1], f8[:, ::1])",
+    "_solve_refs": "void(f8[:, ::1], f8[:, ::1], c16[::1], c16[:, ::1])",
+}
