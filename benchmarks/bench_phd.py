@@ -116,7 +116,7 @@ def run_vem(
     return out, time.perf_counter() - t0
 
 
-def main(argv: list[str] | None = None) -> int:
+def _parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument(
         "--data",
@@ -148,12 +148,12 @@ def main(argv: list[str] | None = None) -> int:
         metavar="FIELD=VALUE",
         help="PHDConfig fields (numbers), e.g. coast_frames=20 diffusion=0",
     )
-    args = ap.parse_args(argv)
-    if not args.data.is_dir():
-        print(f"bench_phd: AV16.3 folder not found: {args.data}", file=sys.stderr)
-        return 2
-    pairs = PAIRS if not args.pairs else [tuple(map(int, p.split(":"))) for p in args.pairs]
-    names = args.filters.split(",")
+    return ap
+
+
+def _config(args: argparse.Namespace) -> tuple[PHDConfig, dict]:
+    """The filters' configuration: the defaults, ``--set`` and the clutter rate; and the
+    overrides."""
     config = PHDConfig()
     over = {}
     for item in args.set:
@@ -168,6 +168,14 @@ def main(argv: list[str] | None = None) -> int:
         over.setdefault("clutter_audio", config.clutter_audio + args.clutter_rate)
     config = dataclasses.replace(config, **over)
 
+    return config, over
+
+
+def _run(args: argparse.Namespace, pairs: list, names: list[str], config: PHDConfig
+         ) -> tuple[dict, dict]:
+    """Every filter (and the visual VEM) on every pair and seed: ``results[name][pair]``, a
+    list of (OSPA, ESS, resamplings, time, OSPA-T, labels) per seed, and each pair's visual
+    source."""
     # results[name][(seq, cam)] = list of (ospa, ess, resamplings, time) per seed
     results: dict[str, dict[tuple[int, int], list[tuple[float, ...]]]] = {
         n: {p: [] for p in pairs} for n in [*names, *(["vem"] if args.vem else [])]
@@ -204,7 +212,12 @@ def main(argv: list[str] | None = None) -> int:
                 file=sys.stderr,
                 flush=True,
             )
+    return results, sources
 
+
+def _report(args: argparse.Namespace, pairs: list, results: dict, sources: dict, over: dict
+            ) -> None:
+    """Print Tables 1 and 2."""
     label = {"lpf": "LPF", "npf": "NPF", "vem": "VEM (OVBT, visual)"}
     cols = list(results)
     print(
@@ -268,8 +281,18 @@ def main(argv: list[str] | None = None) -> int:
             if p[0] == 45:
                 t = np.mean([x[3] for x in results["lpf"][p]])
                 print(f"LPF time, sequence 45 camera {p[1]} ({n_frames[p]} frames): {t:.2f} s")
-    return 0
 
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    if not args.data.is_dir():
+        print(f"bench_phd: AV16.3 folder not found: {args.data}", file=sys.stderr)
+        return 2
+    pairs = PAIRS if not args.pairs else [tuple(map(int, p.split(":"))) for p in args.pairs]
+    config, over = _config(args)
+    results, sources = _run(args, pairs, args.filters.split(","), config)
+    _report(args, pairs, results, sources, over)
+    return 0
 
 if __name__ == "__main__":
     sys.exit(main())
