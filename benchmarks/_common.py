@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import argparse
 import os
 from pathlib import Path
 
@@ -24,6 +25,22 @@ def parse_seeds(text: str) -> list[int]:
         lo, hi = (int(x) for x in text.split("-"))
         return list(range(lo, hi + 1))
     return [int(x) for x in text.split(",")]
+
+
+def add_set_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """A repeatable ``--set METHOD:FIELD=VALUE`` option (read by :func:`parse_set`)."""
+    parser.add_argument("--set", action="append", default=[], metavar="METHOD:FIELD=VALUE",
+                        help=f"override one field of a localizer's configuration {what}, e.g. "
+                        "dprtf-eg:variance=0.05, dprtf-eg:dprtf.ctf_length=4 or "
+                        "dprtf-eg-fast:still_prior=0.3 (repeatable)")
+
+
+def parse_set(parser: argparse.ArgumentParser, items: list[str]) -> dict:
+    """:func:`overrides` of a ``--set`` option; a bad item stops the parser with its message."""
+    try:
+        return overrides(items)
+    except ValueError as exc:
+        parser.error(str(exc))
 
 
 def overrides(items: list[str]) -> dict:

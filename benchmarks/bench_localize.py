@@ -46,7 +46,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import scipy.signal  # noqa: E402
 
-from _common import overrides, shared_data_dir  # noqa: E402
+from _common import add_set_option, parse_set, shared_data_dir  # noqa: E402
 from avtrack.audio.arrays import MicArray, builtin_array, load_array  # noqa: E402
 from avtrack.io.base import atomic_write  # noqa: E402
 from avtrack.io.doa import read_doa_csv  # noqa: E402
@@ -276,20 +276,10 @@ def main(argv: list[str] | None = None) -> int:
         metavar="S",
         help="seconds not scored at the start of each scene (default 1)",
     )
-    p.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="METHOD:FIELD=VALUE",
-        help="override one field of a method's configuration for the scores, e.g. "
-        "dprtf-eg:variance=0.05 or dprtf-eg:dprtf.ctf_length=4 (repeatable)",
-    )
+    add_set_option(p, "for the scores")
     p.add_argument("--markdown", type=Path, metavar="FILE", help="write the tables here")
     args = p.parse_args(argv)
-    try:
-        configs = overrides(args.set)
-    except ValueError as exc:
-        p.error(str(exc))
+    configs = parse_set(p, args.set)
     speed_rows, acc_rows = [], []
     if not args.no_speed:
         print("real-time factor (one BLAS thread):", flush=True)

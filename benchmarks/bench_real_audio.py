@@ -46,7 +46,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from _common import overrides  # noqa: E402
+from _common import add_set_option, parse_set  # noqa: E402
 from avtrack.audio.arrays import MicArray, load_array  # noqa: E402
 from avtrack.audio.recording import read_array_audio  # noqa: E402
 from avtrack.doa import TRACKERS  # noqa: E402
@@ -212,14 +212,9 @@ def main(argv: list[str] | None = None) -> int:
                    "or an array file)")
     p.add_argument("--max-talkers", type=int, metavar="N",
                    help="with --simulated: at most the scene's first N talkers")
-    p.add_argument("--set", action="append", default=[], metavar="METHOD:FIELD=VALUE",
-                   help="override one field of a localizer's configuration (for dprtf-eg-fast "
-                   "also the trackers' maps), e.g. dprtf-eg-fast:still_prior=0.3 (repeatable)")
+    add_set_option(p, "(for dprtf-eg-fast also the trackers' maps)")
     args = p.parse_args(argv)
-    try:
-        CONFIGS.update(overrides(args.set))
-    except ValueError as exc:
-        p.error(str(exc))
+    CONFIGS.update(parse_set(p, args.set))
     if (args.array or args.max_talkers) and not args.simulated:
         p.error("--array and --max-talkers need --simulated")
     if args.max_talkers is not None and args.max_talkers < 1:

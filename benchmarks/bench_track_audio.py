@@ -64,7 +64,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from _common import overrides  # noqa: E402
+from _common import add_set_option, parse_set  # noqa: E402
 from avtrack.audio.arrays import load_array  # noqa: E402
 from avtrack.audio.recording import read_array_audio  # noqa: E402
 from avtrack.doa.base import (  # noqa: E402
@@ -485,14 +485,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="heat maps the trackers run on (default: both)")
     p.add_argument("--trackers", nargs="+", default=[n for _, n in TRACKERS],
                    choices=[n for _, n in TRACKERS], help="trackers to score (default: all)")
-    p.add_argument("--set", action="append", default=[], metavar="METHOD:FIELD=VALUE",
-                   help="override one field of a localizer's configuration, for its scores and "
-                   "the maps the trackers read, e.g. dprtf-eg-fast:still_prior=0.3 (repeatable)")
+    add_set_option(p, "for its scores and the maps the trackers read")
     args = p.parse_args(argv)
-    try:
-        CONFIGS.update(overrides(args.set))
-    except ValueError as exc:
-        p.error(str(exc))
+    CONFIGS.update(parse_set(p, args.set))
     tmp = None
     if args.workdir is None:
         tmp = tempfile.TemporaryDirectory(prefix="avtrack-bench-")
