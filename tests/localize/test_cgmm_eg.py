@@ -156,6 +156,9 @@ def test_spatial_smoothing_hand_case_wraps_around():
         ({"still_prior": 0.0}, "still_prior must be None or in"),
         ({"still_prior": 1.0}, "still_prior must be None or in"),
         ({"still_prior": True}, "still_prior must be None or in"),
+        ({"still_prior": 0.3}, "still_prior needs position_velocities_deg_s"),
+        ({"still_prior": 0.3, "position_velocities_deg_s": (-30.0, 30.0)},
+         "still_prior needs position_velocities_deg_s"),
     ],
 )
 def test_config_validation(kwargs, match):

@@ -443,9 +443,10 @@ class EGConfig:
         distribution of the layers' Markov chain, as in an IMM filter's transition matrix:
         Li and Jilkov 2005). A moving layer then holds mass only as long as the features
         follow it, and the peaks of a standing talker in a reverberant room no longer wander
-        along the moving layers; a talker who moves steadily, though, is trailed by the mass
-        the still layer keeps behind it, so this is an option for seated talkers (meetings),
-        not the default (BENCHMARKS.md, acoustic tracking).
+        along the moving layers. The costs: a talker who moves steadily is trailed by the mass
+        the still layer keeps behind it, and a quiet talker beside a louder one is placed
+        further towards it; so this is an option for seated talkers (meetings), not the
+        default (BENCHMARKS.md, acoustic tracking).
     presence_reach : int
         ``r`` of :func:`place_presence`, in azimuth cells: the masses are summed within ``r``
         cells and the largest taken within ``r`` cells more, so the slow weights may trail a
@@ -515,6 +516,10 @@ class EGConfig:
                 or not 0.0 < self.still_prior < 1.0):
             raise ValueError(f"EGConfig: still_prior must be None or in (0, 1), "
                              f"got {self.still_prior!r}")
+        vel_set = set(self.position_velocities_deg_s or ())
+        if self.still_prior is not None and not (0.0 in vel_set and len(vel_set) > 1):
+            raise ValueError("EGConfig: still_prior needs position_velocities_deg_s with a zero "
+                             f"and a non-zero velocity, got {self.position_velocities_deg_s!r}")
         if self.still_smoothing is not None:
             _positive("EGConfig", "still_smoothing", self.still_smoothing, allow_zero=True)
             if self.still_smoothing > 1:
