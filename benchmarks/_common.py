@@ -77,7 +77,9 @@ def overrides(items: list[str]) -> dict:
     return configs
 
 
-def _number(text: str) -> int | float:
+def _number(text: str) -> int | float | bool:
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
     try:
         return int(text)
     except ValueError:

@@ -104,7 +104,8 @@ def test_config_validation():
     cfg = build_config(VAVITConfig, {"visual": {"death_frames": 5}, "sigma_scale": 2.0})
     assert cfg.visual.death_frames == 5 and cfg.visual.appearance == "cosine"
     assert with_visual(VAVITConfig(), death_frames=7).visual.death_frames == 7
-    assert VAVITConfig().visual == OVBTConfig(appearance="cosine", weak_evidence=1.0)
+    assert VAVITConfig().visual == OVBTConfig(appearance="cosine", weak_evidence=1.0,
+                                              birth_sequence=False)
 
 
 def test_bad_inputs_are_named(scene, tmp_path):

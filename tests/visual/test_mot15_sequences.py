@@ -25,10 +25,11 @@ def _load(root, seq):
             float(info["frame_rate"]))
 
 
-def test_defaults_beat_sort_and_bytetrack_over_the_six_sequences(shared_data):
-    """Combined MOTA at least the original SORT's 38.0, mean IDF1 and mean HOTA at least
-    C-BIoU's 52.0 and 38.2 (the best peers on each), all on SORT's detections (peers measured
-    by benchmarks/bench_mot15.py); avtrack 40.0 / 53.5 / 39.7 today."""
+def test_defaults_beat_every_peer_by_1_5_over_the_six_sequences(shared_data):
+    """Combined MOTA, mean IDF1 and mean HOTA each at least 1.5 points above the best peer on
+    that metric: the original SORT's MOTA 37.96, C-BIoU's IDF1 52.02 and HOTA 38.23, all on
+    SORT's detections (peers measured by benchmarks/bench_mot15.py); avtrack 40.1 / 54.1 /
+    40.3 today."""
     errors = n_gt = 0
     idf1, hota = [], []
     for seq in SEQS:
@@ -39,9 +40,9 @@ def test_defaults_beat_sort_and_bytetrack_over_the_six_sequences(shared_data):
         idf1.append(s.IDF1)
         hota.append(s.HOTA)
     mota = 100 * (1 - errors / n_gt)
-    assert mota >= 38.0, mota
-    assert np.mean(idf1) >= 52.0, idf1
-    assert np.mean(hota) >= 38.2, hota
+    assert mota >= 37.96 + 1.5, mota
+    assert np.mean(idf1) >= 52.02 + 1.5, idf1
+    assert np.mean(hota) >= 38.23 + 1.5, hota
 
 
 @pytest.mark.parametrize("seq", ["TUD-Campus", "PETS09-S2L1"])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from avtrack.config import build_config
-from avtrack.io.mot import read_mot
+from avtrack.io.mot import MOTData, read_mot
 from avtrack.metrics.mot import evaluate_mot
 from avtrack.visual.ovbt import OVBTConfig, OVBTracker, track_mot
 from tests.visual.synthetic import crossing_scene
@@ -165,3 +165,37 @@ def test_reidentification_gives_back_the_identity_of_a_lookalike():
     assert len(np.unique(track_mot(dets, app, cfg, (640, 480), 60).ids)) == 2
     with pytest.raises(ValueError, match="reid_log_ratio"):
         OVBTConfig(reid_log_ratio=float("nan"))
+
+
+def _walker(first: int, n_frames: int) -> MOTData:
+    """One person walking right from frame ``first`` on, one detection a frame (score 1)."""
+    frames = np.arange(first, n_frames + 1)
+    boxes = np.column_stack([100.0 + 4.0 * (frames - first), np.full(frames.size, 200.0),
+                             np.full(frames.size, 40.0), np.full(frames.size, 100.0)])
+    return MOTData(frames, np.full(frames.size, -1), boxes, np.ones(frames.size))
+
+
+def test_birth_sequence_reports_the_frames_the_birth_was_inferred_from():
+    """A person appearing at frame 5 is born at frame 5 + B (eq. 3.30): track_mot reports
+    them from frame 5, at the detections of the birth sequence; without ``birth_sequence``
+    (and in the online ``step``) from the birth frame."""
+    dets = _walker(5, 20)
+    cfg = OVBTConfig()
+    on = track_mot(dets, config=cfg, image_size=IMAGE, n_frames=20)
+    off = track_mot(dets, config=OVBTConfig(birth_sequence=False), image_size=IMAGE,
+                    n_frames=20)
+    born = 5 + cfg.birth_frames
+    assert off.frames.min() == born
+    assert on.frames.min() == 5
+    assert len(np.unique(on.ids)) == 1
+    early = on.frames < born
+    np.testing.assert_array_equal(on.frames[early], np.arange(5, born))
+    np.testing.assert_allclose(on.boxes[early], dets.boxes[:cfg.birth_frames])
+    np.testing.assert_array_equal(on.scores[early], 1.0)
+    np.testing.assert_array_equal(on.boxes[~early], off.boxes)  # later rows unchanged
+    assert np.all(np.diff(on.frames) >= 0)  # still in frame order
+    tracker = OVBTracker(cfg, IMAGE)
+    stepped = [tracker.step(dets.boxes[dets.frames == f], dets.scores[dets.frames == f])
+               for f in range(1, 21)]
+    first_shown = next(f for f, out in enumerate(stepped, start=1) if len(out.ids))
+    assert first_shown == born

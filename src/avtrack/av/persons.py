@@ -194,9 +194,11 @@ class PersonConfig:
     #: the visual tracker: OVBT with cosine appearance; a weak detection (lower class of the
     #: score split) shows a target as a strong one does (``weak_evidence`` 1), since the boxes
     #: here come from a detector run on the frames, where the weak class is as often a person as
-    #: the strong (AV16.3 seq 30 camera 1 with YuNet faces: persons OSPA 14.2 px, 15.8 at 0.2)
-    visual: OVBTConfig = field(
-        default_factory=lambda: OVBTConfig(appearance="cosine", weak_evidence=1.0))
+    #: the strong (AV16.3 seq 30 camera 1 with YuNet faces: persons OSPA 14.2 px, 15.8 at 0.2);
+    #: no rows for a birth's earlier frames (``birth_sequence``): the persons tracker reads the
+    #: visual tracks frame by frame
+    visual: OVBTConfig = field(default_factory=lambda: OVBTConfig(
+        appearance="cosine", weak_evidence=1.0, birth_sequence=False))
 
     def __post_init__(self) -> None:
         if not isinstance(self.visual, OVBTConfig):

@@ -126,9 +126,11 @@ class VAVITConfig:
     """
 
     #: weak detections show targets as strong ones do (``weak_evidence`` 1), as in
-    #: :class:`~avtrack.av.persons.PersonConfig`: the boxes come from a detector run on the frames
-    visual: OVBTConfig = field(
-        default_factory=lambda: OVBTConfig(appearance="cosine", weak_evidence=1.0))
+    #: :class:`~avtrack.av.persons.PersonConfig`: the boxes come from a detector run on the
+    #: frames; no rows for a birth's earlier frames (``birth_sequence``): tracks are read frame
+    #: by frame beside the audio
+    visual: OVBTConfig = field(default_factory=lambda: OVBTConfig(
+        appearance="cosine", weak_evidence=1.0, birth_sequence=False))
     sigma_scale: float = 4.0
     audio_log_clutter: float | None = None
     audio_clutter_distance: float | None = None

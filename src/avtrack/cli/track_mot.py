@@ -66,7 +66,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="""\
 Online variational-Bayesian multi-person tracking (thesis §3.1) of MOTChallenge detections
 (frame,id,left,top,width,height,conf,...); writes MOTChallenge results
-(frame,id,left,top,width,height,conf,-1,-1,-1), conf being the track's visibility probability.""",
+(frame,id,left,top,width,height,conf,-1,-1,-1), conf being the track's visibility probability.
+A person is reported from the first of the B + 1 detections their birth was inferred from
+(eq. 3.30; B = birth_frames, 2), at those detections with conf 1: the file is written once the
+sequence is tracked, so it can hold what an online output gives only B frames late
+(birth_sequence: false in --config turns this off).""",
         epilog=EXAMPLES)
     p.add_argument("detections", type=Path, metavar="DET.txt", nargs="?",
                    help="MOTChallenge detections (omit to detect in --video's frames)")

@@ -108,6 +108,11 @@ class OVBTConfig:
     reid_log_ratio: float | None = None
     reid_max_age: int = 50
     reid_max_distance: float = 3.0
+    #: :func:`track_mot` (the batch helper, not :meth:`OVBTracker.step`) also reports each
+    #: newborn over the earlier frames of its birth sequence (eq. 3.30), at the detections the
+    #: birth was inferred from: the model's estimate that the person was there, which an
+    #: online output can only give B frames late
+    birth_sequence: bool = True
 
     def __post_init__(self) -> None:
         positive = ("obs_std_pos", "obs_std_size", "dyn_std_pos", "dyn_std_size",
@@ -144,6 +149,9 @@ class OVBTConfig:
         ):
             raise ValueError(f"OVBTConfig.reid_log_ratio must be a finite number or None, got "
                              f"{self.reid_log_ratio!r}")
+        if not isinstance(self.birth_sequence, bool):
+            raise ValueError(f"OVBTConfig.birth_sequence must be true or false, got "
+                             f"{self.birth_sequence!r}")
 
 
 @dataclass(frozen=True)
@@ -220,6 +228,10 @@ class OVBTracker(ManagedTargets):
         # targets ended lately, for re-identification: id -> (frame, (x, y, w), reference)
         self._ended: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         self.frame = 0
+        #: with ``record_births`` set (by :func:`track_mot`), each newborn's earlier birth
+        #: frames as (frame, id, box (x, y, w, h)), until the caller empties the list
+        self.record_births = False
+        self.birth_rows: list[tuple[int, int, np.ndarray]] = []
 
     def _dyn_cov(self, mu: np.ndarray) -> np.ndarray:
         return box_dynamics_covariance(mu, self._dyn_std_pos, self._dyn_std_size,
@@ -475,6 +487,12 @@ class OVBTracker(ManagedTargets):
             ids = self._reidentify(ids, mu, init)
         # the box model gets the appearances; any other model of a subclass (VAVIT) none
         self._add_targets(ids, mu, gamma, [init] + [None] * (len(self.engine.models) - 1))
+        if self.record_births:
+            first = self.frame - len(self._pool) + 1  # the pool's oldest frame
+            for tid, b in zip(ids.tolist(), born, strict=True):
+                for f, idx in enumerate(b.indices[:-1].tolist()):  # the last is this frame
+                    self.birth_rows.append(
+                        (first + f, int(tid), self._pool[f].z[idx, :BOX_DIM].copy()))
         consume_pool(self._pool, born)  # no longer available to other births
 
 
@@ -515,7 +533,8 @@ def track_mot(
     Returns
     -------
     MOTData
-        Results (confidence = visibility posterior).
+        Results (confidence = visibility posterior; 1 on the rows of a birth sequence's
+        earlier frames, ``config.birth_sequence``).
     """
     if appearance is not None:
         appearance = np.asarray(appearance, dtype=float)
@@ -523,6 +542,7 @@ def track_mot(
             raise ValueError(f"appearance must have one row per detection ({len(dets)}), got "
                              f"shape {appearance.shape}")
     tracker = OVBTracker(config, image_size or image_size_from_detections(dets), fps)
+    tracker.record_births = tracker.config.birth_sequence
     rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # ids, boxes, confidences
     done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     counts: list[int] = []
@@ -536,8 +556,29 @@ def track_mot(
     if not counts:
         return MOTData(np.zeros(0), np.zeros(0), np.zeros((0, 4)), np.zeros(0))
     ids, boxes, conf = _stack([*done, *rows])
-    return MOTData(np.repeat(np.arange(1, len(counts) + 1), counts), ids, xywh_to_ltwh(boxes),
-                   conf)
+    frames = np.repeat(np.arange(1, len(counts) + 1), counts)
+    if tracker.birth_rows:
+        frames, ids, boxes, conf = _with_birth_rows(frames, ids, boxes, conf,
+                                                    tracker.birth_rows)
+    return MOTData(frames, ids, xywh_to_ltwh(boxes), conf)
+
+
+def _with_birth_rows(
+    frames: np.ndarray, ids: np.ndarray, boxes: np.ndarray, conf: np.ndarray,
+    births: list[tuple[int, int, np.ndarray]],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The results with the birth sequences' earlier frames (:attr:`OVBTracker.birth_rows`)
+    added, each after its frame's own rows; a (frame, id) already reported is kept as it is."""
+    have = set(zip(frames.tolist(), ids.tolist(), strict=True))
+    new = [(f, i, b) for f, i, b in births if (f, i) not in have]
+    if not new:
+        return frames, ids, boxes, conf
+    frames = np.concatenate([frames, [f for f, _, _ in new]])
+    ids = np.concatenate([ids, [i for _, i, _ in new]])
+    boxes = np.vstack([boxes, np.stack([b for _, _, b in new])])
+    conf = np.concatenate([conf, np.ones(len(new))])
+    order = np.argsort(frames, kind="stable")
+    return frames[order], ids[order], boxes[order], conf[order]
 
 
 def _stack(
