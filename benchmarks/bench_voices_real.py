@@ -42,6 +42,7 @@ import platform  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+import scipy.ndimage  # noqa: E402
 import scipy.signal  # noqa: E402
 
 from avtrack.audio.arrays import MicArray  # noqa: E402
@@ -200,8 +201,7 @@ def _widen(mask: np.ndarray, seconds: float = 0.3) -> np.ndarray:
     """``mask`` grown by ``seconds`` each side (turns start before and end after the frames
     PRP-REM hears)."""
     n = int(seconds * FS)
-    grown = np.convolve(mask.astype(float), np.ones(2 * n + 1), mode="same") > 0
-    return grown
+    return scipy.ndimage.maximum_filter1d(mask.astype(np.uint8), size=2 * n + 1) > 0
 
 
 def _median(rows: list[dict], key: str) -> str:

@@ -228,8 +228,8 @@ class OVBTracker(ManagedTargets):
         # targets ended lately, for re-identification: id -> (frame, (x, y, w), reference)
         self._ended: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         self.frame = 0
-        #: with ``record_births`` set (by :func:`track_mot`), each newborn's earlier birth
-        #: frames as (frame, id, box (x, y, w, h)), until the caller empties the list
+        #: with ``record_births`` set (by :func:`track_mot`, which adds them to its results at
+        #: the end), each newborn's earlier birth frames as (frame, id, box (x, y, w, h))
         self.record_births = False
         self.birth_rows: list[tuple[int, int, np.ndarray]] = []
 
