@@ -109,9 +109,8 @@ def simulated_recordings(seeds: list[int], duration: float, array: str | None = 
             sel = (gt.ids == pid) & gt.active
             if np.count_nonzero(sel) * scene.scenario["gt_hop_s"] < MIN_SPEECH_S:
                 continue  # a talker must speak to be found
-            r = np.deg2rad(gt.azimuth_deg[sel])
-            az = float(np.rad2deg(np.arctan2(np.sin(r).mean(), np.cos(r).mean())))
-            talkers.append((az, float(np.mean(gt.elevation_deg[sel]))))
+            talkers.append((circular_mean_deg(gt.azimuth_deg[sel]),
+                            float(np.mean(gt.elevation_deg[sel]))))
         pos = np.asarray(raw["people"][0]["motion"]["position"])
         dist = float(np.linalg.norm(pos - np.asarray(raw["array"]["position"])))
         out.append(Recording(Path(f"array-talkers s{seed} {dist:.1f} m"), None, tuple(talkers),
@@ -174,23 +173,34 @@ def tracker_scores(rec: Recording, array: MicArray, x: np.ndarray, tracker: str,
         for i, a, on in zip(tr.ids, tr.azimuth_deg, tr.active, strict=True):
             if on:
                 by_id.setdefault(int(i), []).append(float(a))
-    means = {}
-    for i, az in by_id.items():
-        if len(az) >= min_active:
-            r = np.deg2rad(az)
-            means[i] = float(np.rad2deg(np.arctan2(np.sin(r).mean(), np.cos(r).mean())))
+    means = {i: circular_mean_deg(az) for i, az in by_id.items() if len(az) >= min_active}
+    matched = match_talkers(rec.talkers, means)
+    return {"found": {k: err for k, (_i, err) in matched.items()},
+            "extra": len(means) - len(matched), "tracks": means}
+
+
+def circular_mean_deg(azimuth_deg) -> float:
+    """The circular mean of azimuths, degrees."""
+    r = np.deg2rad(np.asarray(azimuth_deg, dtype=float))
+    return float(np.rad2deg(np.arctan2(np.sin(r).mean(), np.cos(r).mean())))
+
+
+def match_talkers(talkers: tuple[tuple[float, float], ...],
+                  means: dict[int, float]) -> dict[int, tuple[int, float]]:
+    """Talker index -> (track id, error in degrees): each track's mean azimuth given to the
+    nearest talker within ``GATE_DEG``, nearest pairs first, one track per talker."""
     pairs = sorted(
         (float(angle_error(m, az)), k, i)
-        for k, (az, _el) in enumerate(rec.talkers)
+        for k, (az, _el) in enumerate(talkers)
         for i, m in means.items()
     )
-    found: dict[int, float] = {}
+    found: dict[int, tuple[int, float]] = {}
     used: set[int] = set()
     for err, k, i in pairs:
         if err <= GATE_DEG and k not in found and i not in used:
-            found[k] = err
+            found[k] = (i, err)
             used.add(i)
-    return {"found": found, "extra": len(means) - len(used), "tracks": means}
+    return found
 
 
 def main(argv: list[str] | None = None) -> int:

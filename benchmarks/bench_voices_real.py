@@ -58,7 +58,14 @@ from avtrack.audio.stft import FRAME_HOP_S as HOP_S  # noqa: E402
 from avtrack.doa.base import frames_to_table  # noqa: E402
 from avtrack.localize import make_localizer, peak_table  # noqa: E402
 from avtrack.stream.audio import DOAStream  # noqa: E402
-from bench_real_audio import DEFAULT_ROOT, GATE_DEG, Recording, angle_error, find_recordings  # noqa: E402
+from bench_real_audio import (  # noqa: E402
+    DEFAULT_ROOT,
+    Recording,
+    angle_error,
+    circular_mean_deg,
+    find_recordings,
+    match_talkers,
+)
 
 LABEL_GATE_DEG = 10.0  # a PRP-REM peak this close to a talker says the talker is heard
 FLOOR_DB = -60.0  # levels below this are written as this (a gated voice is exactly zero)
@@ -150,18 +157,10 @@ def tracked_voices(rec: Recording, array: MicArray, x: np.ndarray,
     means = {}
     for t in tracks:
         on = np.zeros(t.time_s.shape, dtype=bool)
-        for a, b in t.turns:
-            on |= (t.time_s >= a) & (t.time_s < b)
-        r = np.deg2rad(t.azimuth_deg[on])
-        means[t.id] = float(np.rad2deg(np.arctan2(np.sin(r).mean(), np.cos(r).mean())))
-    pairs = sorted((float(angle_error(m, az)), k, i) for k, (az, _e) in enumerate(rec.talkers)
-                   for i, m in means.items())
-    out: dict[int, np.ndarray] = {}
-    used: set[int] = set()
-    for err, k, i in pairs:
-        if err <= GATE_DEG and k not in out and i not in used:
-            out[k] = voices[i]
-            used.add(i)
+        for start, end in t.turns:
+            on |= (t.time_s >= start) & (t.time_s < end)
+        means[t.id] = circular_mean_deg(t.azimuth_deg[on])
+    out = {k: voices[i] for k, (i, _err) in match_talkers(rec.talkers, means).items()}
     return out
 
 
