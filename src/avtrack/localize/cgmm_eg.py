@@ -45,10 +45,12 @@ from typing import ClassVar
 import numpy as np
 
 from avtrack.audio.dprtf import DPRTFConfig, DPRTFEstimator
+from avtrack.localize import _density_kernel
 from avtrack.localize.base import Localizer, register_localizer
 from avtrack.localize.grid import DirectionGrid, dprtf_means, transfer_functions
 
 _TINY = 1e-300
+_F32_BIG = 1e30  # below float32's largest value: 1/denominator stays finite
 
 
 def _positive(owner: str, name: str, value: float, allow_zero: bool = False) -> None:
@@ -123,7 +125,13 @@ def ratios_from_densities(dens: np.ndarray, weights: np.ndarray) -> np.ndarray:
 def mean_ratios(dens: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``(1/K) sum_k N_kd / sum_d' w_d' N_kd'`` ``(D,)``: the mean over the features of
     :func:`ratios_from_densities`, which is all eqs. 5.17-5.19 use (two matrix-vector
-    products instead of a ``(K, D)`` division)."""
+    products instead of a ``(K, D)`` division). Densities in single precision (as the
+    localizers compute them) give the products in single precision (no ``(K, D)`` copy) and
+    the mean in double."""
+    if dens.dtype == np.float32:
+        denom = (dens @ weights.astype(np.float32)).astype(np.float64)
+        inv = np.minimum(1.0 / np.maximum(denom, _TINY), _F32_BIG).astype(np.float32)
+        return (inv @ dens).astype(np.float64) / dens.shape[0]
     inv = 1.0 / np.maximum(dens @ weights, _TINY)  # 1 / sum_d' w_d' N_kd'   (K,)
     return (inv @ dens) / dens.shape[0]
 
@@ -547,8 +555,12 @@ class CGMMLocalizer(Localizer):
         h = transfer_functions(self.array, self.grid, freqs, self.fs)
         # (I-1, F, D): boolean indexing with a feature mask (I-1, F) gives (K, D)
         self._means = np.ascontiguousarray(dprtf_means(h, self.config.dprtf.phase_only))
-        #: (I-1, F, 3, D) :func:`density_coefficients` of the means, once
-        self._coef = density_coefficients(self._means, self.config.variance)
+        #: :func:`density_coefficients` of the means, once, in single precision, one row per
+        #: (pair, bin) in the order of a feature mask's ``flatnonzero``: (R, 3, D)
+        coef = density_coefficients(self._means, self.config.variance)
+        self._coef32 = coef.astype(np.float32).reshape(-1, 3, coef.shape[-1])
+        #: True: the compiled densities (:mod:`avtrack.localize._density_kernel`)
+        self._compiled = _density_kernel.available()
         self._estimator = DPRTFEstimator(
             self.n_channels, self.stft_config.n_freqs, freqs, self.config.dprtf
         )
@@ -574,11 +586,23 @@ class CGMMLocalizer(Localizer):
             k = int(np.count_nonzero(valid))
             dens = None
             if k and k >= cfg.min_features:
-                dens = densities_from_coefficients(values[valid], self._coef[valid])
+                dens = self._densities(values, valid)
             w, out[t] = self._frame(w, dens)
             n_obs[t] = k
         self.weights = w
         return out, n_obs
+
+    def _densities(self, values: np.ndarray, valid: np.ndarray) -> np.ndarray:
+        """:func:`densities_from_coefficients` of the frame's valid features, in single
+        precision (:mod:`avtrack.localize._density_kernel`): ``values`` and ``valid``
+        ``(I-1, F)`` as the DP-RTF estimator gives them; returns ``(K, D)`` float32."""
+        rows = np.flatnonzero(valid)
+        f = values.ravel()[rows]
+        out = np.empty((rows.size, self._coef32.shape[-1]), dtype=np.float32)
+        kern = _density_kernel.kernel() if self._compiled else None
+        form = _density_kernel.log_densities_numpy if kern is None else kern
+        form(np.ascontiguousarray(f.real), np.ascontiguousarray(f.imag), rows, self._coef32, out)
+        return np.exp(out, out=out)
 
     def _frame(
         self, weights: np.ndarray, dens: np.ndarray | None
