@@ -292,7 +292,7 @@ def test_kernel_without_compilation_gives_the_numpy_forms_numbers():
     est = DPRTFEstimator(3, 3, config=cfg)
     original = _dprtf_kernel.kernel
     try:
-        _dprtf_kernel.kernel = lambda: _dprtf_kernel.update_and_solve  # type: ignore[assignment]
+        _dprtf_kernel.kernel = lambda: _dprtf_kernel.frame_features  # type: ignore[assignment]
         est.compiled = True
         out = est.run(x)
     finally:
@@ -305,17 +305,27 @@ def test_kernel_without_compilation_gives_the_numpy_forms_numbers():
 def test_kernel_reports_a_matrix_that_is_not_positive_definite():
     r = np.zeros((1, 4, 4), dtype=complex)
     r[0] = -np.eye(4)  # an indefinite memory (cannot arise from eq. 5.9, but must be caught)
-    out = np.ones((1, 2, 2), dtype=complex)
-    ok = _dprtf_kernel.update_and_solve(
-        r,
+    values = np.zeros((1, 1), dtype=complex)
+    valid = np.zeros((1, 1), dtype=bool)
+    ok = _dprtf_kernel.frame_features(
+        np.zeros((1, 2, 2), dtype=complex),  # phi_hat (F, I, Q): U = 0
         np.array([0]),
-        np.zeros((1, 2, 2), dtype=complex),
-        np.array([1.0]),
-        np.array([False]),
-        np.array([True]),
+        np.array([1, 0]),
+        r,
+        np.array([True]),  # started: the memory is kept
+        np.array([10.0]),  # enough memory to factorise
+        np.array([0]),
+        1,
+        0.9,
+        True,
+        1.0,
         1e-3,
         1e-12,
-        out,
+        0.75,
+        1e-5,
+        False,
+        values,
+        valid,
     )
     assert ok is False
 

@@ -1,4 +1,4 @@
-"""Compiled per-bin kernel of the DP-RTF estimator's Cholesky solver (thesis eq. 5.9).
+"""Compiled per-bin kernel of the DP-RTF estimator's Cholesky solver (thesis eqs. 5.9, 5.11).
 
 Why by hand: each STFT frame updates, for every speech bin, an ``IQ x IQ`` Hermitian matrix
 ``R_t = lambda^g R_{t-1} + U_t`` and needs two columns of ``R_t^{-1}`` restricted to the first
@@ -8,7 +8,9 @@ plus ``zpotrf`` itself, which is slow for 32 x 32 matrices; on a 2-core machine 
 takes 75 % of the localizer's time. No maintained library fuses a per-bin covariance update
 with a small Cholesky factorisation, so this module does it with Numba: each bin's matrix is
 updated in place (lower triangle only, which is all the factorisation reads) and factorised
-while it is in the CPU cache. :class:`avtrack.audio.dprtf.DPRTFEstimator` uses it when Numba is
+while it is in the CPU cache, then the bin's features and their consistency test (eq. 5.11)
+are computed there too (a frame's speech bins in one call, not a dozen NumPy calls per frame).
+:class:`avtrack.audio.dprtf.DPRTFEstimator` uses it when Numba is
 installed (a dependency) and falls back to the NumPy form otherwise or with
 ``AVTRACK_NO_JIT=1``; the tests check that both agree. Called uncompiled (plain Python), it
 gives the same numbers, slowly.
@@ -47,14 +49,14 @@ def available() -> bool:
 
 #: the kernel's one signature: C-contiguous arrays as ``DPRTFEstimator`` passes them
 SIGNATURE = (
-    "b1(c16[:, :, ::1], i8[::1], c16[:, :, ::1], f8[::1], b1[::1], b1[::1], f8, f8, "
-    "c16[:, :, ::1])"
+    "b1(c16[:, :, ::1], i8[::1], i8[::1], c16[:, :, ::1], b1[::1], f8[::1], i8[::1], i8, f8, "
+    "b1, f8, f8, f8, f8, f8, b1, c16[:, ::1], b1[:, ::1])"
 )
 _FAILED = False  # the kernel could not be built here (then the NumPy form is used)
 
 
 def kernel() -> Callable[..., bool] | None:
-    """The compiled :func:`update_and_solve`, or None if Numba cannot build it on this machine.
+    """The compiled :func:`frame_features`, or None if Numba cannot build it on this machine.
 
     Built once per process for :data:`SIGNATURE` (Numba caches the machine code beside this file
     or in ``~/.cache``; without a writable location it compiles without caching). A failure to
@@ -84,54 +86,76 @@ def kernel() -> Callable[..., bool] | None:
 
 
 def _compile(njit: Callable[..., Any], fastmath: set[str], cache: bool) -> Callable[..., bool]:
-    """:func:`update_and_solve` compiled for :data:`SIGNATURE`, its per-bin steps first (each
+    """:func:`frame_features` compiled for :data:`SIGNATURE`, its per-bin steps first (each
     for its own signature, and bound in this module's namespace, where the compiled
-    :func:`update_and_solve` looks them up)."""
+    :func:`frame_features` looks them up). NumPy's error model: a division by zero gives an
+    infinite or NaN feature, which the consistency test rejects, as in the NumPy form."""
     for name, signature in _STEP_SIGNATURES.items():
         # inlined where called (Numba IR): the same machine code as one function
         globals()[name] = njit(signature, cache=cache, nogil=True, fastmath=fastmath,
-                               inline="always")(_PY_STEPS[name])
-    return njit(SIGNATURE, cache=cache, nogil=True, fastmath=fastmath)(update_and_solve)
+                               inline="always", error_model="numpy")(_PY_STEPS[name])
+    return njit(SIGNATURE, cache=cache, nogil=True, fastmath=fastmath,
+                error_model="numpy")(frame_features)
 
 
-def update_and_solve(
-    r: np.ndarray,
+def frame_features(
+    phi_hat: np.ndarray,
     s: np.ndarray,
-    v: np.ndarray,
-    age: np.ndarray,
-    new: np.ndarray,
-    enough: np.ndarray,
+    lag_order: np.ndarray,
+    r: np.ndarray,
+    started: np.ndarray,
+    memory: np.ndarray,
+    last: np.ndarray,
+    t: int,
+    lam: float,
+    forget_over_noise: bool,
+    min_memory: float,
     regularization: float,
     loading: float,
-    out: np.ndarray,
+    threshold: float,
+    faded: float,
+    phase_only: bool,
+    values: np.ndarray,
+    valid: np.ndarray,
 ) -> bool:
-    """Update the speech bins' ``R`` in place and solve for the two reference columns.
+    """One frame of the estimator for its speech bins: each bin's memory weight, ``R`` updated
+    in place, and for the bins with enough memory the two reference solutions and the
+    features (the NumPy form: ``DPRTFEstimator._age``, ``_update_cholesky`` and
+    :func:`~avtrack.audio.dprtf.dprtf_features`).
 
     Parameters
     ----------
-    r : ndarray (F, n, n), complex128
-        The estimator's matrices; only the lower triangles are read and written.
+    phi_hat : ndarray (F, I, Q), complex128
+        The frame's noise-free PSDs ``phi-hat^i_{t-q, f}`` at ``[f, i, q]``.
     s : ndarray (F_s,), int64
         Speech bins.
-    v : ndarray (F_s, Q, I), complex128
-        PSD vectors, lags in the unknowns' order (``n = Q I``).
-    age : ndarray (F_s,)
-        ``lambda^g`` of each bin's memory.
-    new : ndarray (F_s,), bool
-        First speech frame of the bin (``R = 0`` before the update, ``delta`` loading).
-    enough : ndarray (F_s,), bool
-        The bin gives a feature this frame: factorise and solve (else only update).
+    lag_order : ndarray (Q,), int64
+        Lags in the unknowns' order (lag 0 last).
+    r : ndarray (F, n, n), complex128
+        The estimator's matrices; only the lower triangles are read and written.
+    started, memory, last : ndarray (F,)
+        The estimator's per-bin state (bool, float64, int64), updated in place.
+    t : int
+        Index of this frame.
+    lam, forget_over_noise, min_memory, faded
+        ``lambda``, whether memory fades over non-speech frames (``lambda^g``), the memory a
+        bin needs to give features, and the weight below which a bin starts afresh.
     regularization, loading : float
         ``delta`` relative to ``trace(U)`` at a first frame, and the relative ridge.
-    out : ndarray (F_s, I, 2), complex128
-        Written for the bins with ``enough``: ``(R^{-1})[A, ref]`` for refs 0 and 1.
+    threshold, phase_only
+        The consistency test (eq. 5.11) and the features' normalisation.
+    values : ndarray (I - 1, F), complex128
+    valid : ndarray (I - 1, F), bool
+        Written at the bins with enough memory (left as given elsewhere).
 
     Returns
     -------
     ok : bool
         False if a matrix was not numerically positive definite (the caller then raises).
     """
-    n_s, q_, i_ = v.shape
+    n_s = s.size
+    i_ = phi_hat.shape[1]
+    q_ = lag_order.size
     n = q_ * i_
     u = np.empty(n, dtype=np.complex128)
     smat = np.empty((q_, q_), dtype=np.complex128)
@@ -139,14 +163,57 @@ def update_and_solve(
     lr = np.zeros((n, n))
     li = np.zeros((n, n))
     y = np.empty(i_, dtype=np.complex128)
+    vb = np.empty((q_, i_), dtype=np.complex128)
+    z = np.empty((i_, 2), dtype=np.complex128)
     ok = True
     for b in range(n_s):
-        rf = r[s[b]]
-        _update_bin(rf, v[b], u, smat, age[b], new[b], regularization, loading)
-        if enough[b]:
+        f = s[b]
+        # the memory's weight lambda^g, g frames since the bin's latest speech frame
+        age = lam ** float(t - last[f]) if forget_over_noise else lam
+        if lam > 0.0 and forget_over_noise and started[f] and age < faded:
+            started[f] = False  # faded: the bin starts afresh
+        new = not started[f]
+        memory[f] = 1.0 if new else age * memory[f] + 1.0
+        last[f] = t
+        for q in range(q_):  # PSD vectors, lags in the unknowns' order
+            for k in range(i_):
+                vb[q, k] = phi_hat[f, k, lag_order[q]]
+        rf = r[f]
+        _update_bin(rf, vb, u, smat, age, new, regularization, loading)
+        started[f] = True
+        if memory[f] >= min_memory * (1.0 - 1e-9):  # enough equations
             ok = _cholesky(rf, lr, li) and ok
-            _solve_refs(lr, li, y, out[b])
+            _solve_refs(lr, li, y, z)
+            _bin_features(z, threshold, phase_only, values, valid, f)
     return ok
+
+
+def _bin_features(
+    z: np.ndarray, threshold: float, phase_only: bool, values: np.ndarray, valid: np.ndarray,
+    f: int,
+) -> None:
+    """:func:`~avtrack.audio.dprtf.dprtf_features` of one bin from ``z (I, 2)``, the two
+    reference columns of ``(R^{-1})_{AA}``, into column ``f`` of ``values`` and ``valid``.
+    A zero reference entry gives no feature (the NumPy form's infinite or NaN ratios fail the
+    test; Numba raises on a complex division by zero whatever its error model)."""
+    if z[0, 0] == 0 or z[0, 1] == 0:
+        for i in range(1, z.shape[0]):
+            values[i - 1, f] = 0j
+            valid[i - 1, f] = False
+        return
+    for i in range(1, z.shape[0]):
+        c1 = z[i, 0] / z[0, 0]  # c~^i = a^i_0 / a^1_0 (reference 1)
+        c2 = z[i, 1] / z[0, 1]  # c̄^i / c̄^1 (reference 2)
+        a1 = abs(c1)
+        a2 = abs(c2)
+        d = abs(1.0 + c1.conjugate() * c2) / np.sqrt((1.0 + a1 * a1) * (1.0 + a2 * a2))
+        c = 0.5 * (c1 + c2)
+        ac = abs(c)
+        feat = c / (ac * np.sqrt(2.0)) if phase_only else c / np.sqrt(1.0 + ac * ac)
+        good = (d >= threshold and np.isfinite(d) and np.isfinite(feat.real)
+                and np.isfinite(feat.imag))
+        values[i - 1, f] = feat if good else 0j
+        valid[i - 1, f] = good
 
 
 def _update_bin(
@@ -275,10 +342,12 @@ def _solve_refs(lr: np.ndarray, li: np.ndarray, y: np.ndarray, out_b: np.ndarray
 
 #: the per-bin steps as Python functions (:func:`_compile` binds compiled ones in their place)
 _PY_STEPS: dict[str, Callable[..., Any]] = {
-    "_update_bin": _update_bin, "_cholesky": _cholesky, "_solve_refs": _solve_refs}
-#: their signatures, as :func:`update_and_solve` passes them
+    "_update_bin": _update_bin, "_cholesky": _cholesky, "_solve_refs": _solve_refs,
+    "_bin_features": _bin_features}
+#: their signatures, as :func:`frame_features` passes them
 _STEP_SIGNATURES = {
     "_update_bin": "void(c16[:, ::1], c16[:, ::1], c16[::1], c16[:, ::1], f8, b1, f8, f8)",
     "_cholesky": "b1(c16[:, ::1], f8[:, ::1], f8[:, ::1])",
     "_solve_refs": "void(f8[:, ::1], f8[:, ::1], c16[::1], c16[:, ::1])",
+    "_bin_features": "void(c16[:, ::1], f8, b1, c16[:, ::1], b1[:, ::1], i8)",
 }

@@ -66,10 +66,10 @@ Two solvers give the same estimates (checked in the tests to ~1e-8):
   ``R[(k, q), (l, p)] += delta_kl sum_j conj(v^j_q) v^j_p - conj(v^l_q) v^k_p``.
 
 The Cholesky solver runs as one compiled loop over the speech bins (Numba,
-``avtrack.audio._dprtf_kernel``: update, factorisation and the two small solves while the bin's
-matrix is in cache; localization 2.0-2.3x faster than with the NumPy form, one core). The NumPy
-form remains (``AVTRACK_NO_JIT=1``, or Numba missing); the two agree to ~1e-9 and only the
-bins that give a feature are factorised.
+``avtrack.audio._dprtf_kernel``: memory weight, update, factorisation, the two small solves
+and the consistency test while the bin's matrix is in cache). The NumPy form remains
+(``AVTRACK_NO_JIT=1``, or Numba missing); the two agree to ~1e-9 and only the bins that give a
+feature are factorised.
 
 Regularisation: the thesis initialises ``P = I`` (``R_0 = I``); to make the estimates
 independent of the signal's scale we use ``R_0 = delta I`` with
@@ -370,7 +370,7 @@ class DPRTFEstimator:
         self.band = band
         # unknown ordering: coefficient-major, lags 1..Q-1 first and lag 0 last, so the first
         # CTF coefficients of the channels are the trailing I unknowns (see module docstring)
-        self._lag_order = np.r_[np.arange(1, q), 0]
+        self._lag_order = np.r_[np.arange(1, q), 0].astype(np.int64)
         self._pairs = [(i, j) for i in range(n_channels) for j in range(i + 1, n_channels)]
         self.reset()
 
@@ -437,12 +437,13 @@ class DPRTFEstimator:
         s = np.flatnonzero(speech)
         if s.size == 0:
             return values, valid, speech
+        if self.config.solver == "cholesky" and self.compiled:
+            if self._frame_compiled(phi_hat, s, values, valid):
+                return values, valid, speech
         # v[f, q', k]: PSD vectors of the speech bins, lags in the unknowns' order
         v = np.ascontiguousarray(phi_hat[s][:, :, self._lag_order].transpose(0, 2, 1))
         age = self._age(s)
-        if self.config.solver == "cholesky" and self.compiled:
-            z = self._update_compiled(s, v, age)
-        elif self.config.solver == "cholesky":
+        if self.config.solver == "cholesky":
             z = self._update_cholesky(s, v, age)
         else:
             z = self._update_rls(s, v, age)
@@ -472,37 +473,44 @@ class DPRTFEstimator:
         self._last[s] = t
         return age
 
-    def _update_compiled(self, s: np.ndarray, v: np.ndarray, age: np.ndarray) -> np.ndarray:
-        """:meth:`_update_cholesky` fused per bin and compiled (``avtrack.audio._dprtf_kernel``).
-
-        Same arithmetic; only the lower triangles of ``R`` are kept, and only the bins with
-        enough memory (the ones that give a feature) are factorised.
+    def _frame_compiled(
+        self, phi_hat: np.ndarray, s: np.ndarray, values: np.ndarray, valid: np.ndarray
+    ) -> bool:
+        """The speech bins' part of :meth:`_step` (memory weights, eq. 5.9 with the Cholesky
+        solver, features) as one compiled loop (``avtrack.audio._dprtf_kernel``), writing
+        ``values`` and ``valid``. Same arithmetic as the NumPy form; only the lower triangles
+        of ``R`` are kept, and only the bins with enough memory are factorised. False (nothing
+        done) if the kernel cannot be built here: the NumPy form from now on (warned once).
         """
         kern = _dprtf_kernel.kernel()
-        if kern is None:  # cannot be built here (warned once): the NumPy form from now on
+        if kern is None:
             self.compiled = False
-            return self._update_cholesky(s, v, age)
-        i_ = v.shape[2]
-        new = ~self._started[s]
-        enough = self._memory[s] >= self.min_memory * (1.0 - 1e-9)
-        out = np.ones((s.size, i_, 2), dtype=complex)  # placeholder where no feature is given
+            return False
         ok = kern(
-            self._r,
+            np.ascontiguousarray(phi_hat, dtype=complex),
             s.astype(np.int64, copy=False),
-            v,
-            np.ascontiguousarray(age, dtype=float),
-            new,
-            enough,
+            self._lag_order,
+            self._r,
+            self._started,
+            self._memory,
+            self._last,
+            self.frames_done - 1,
+            float(self.forgetting),
+            bool(self.config.forget_over_noise),
+            float(self.min_memory),
             float(self.config.regularization),
             _LOADING,
-            out,
+            float(self.config.consistency_threshold),
+            _FADED,
+            bool(self.config.phase_only),
+            values,
+            valid,
         )
-        self._started[s] = True
         if not ok:
             raise np.linalg.LinAlgError(
                 "DPRTFEstimator: an RLS covariance is not positive definite (non-finite input?)"
             )
-        return out
+        return True
 
     def _update_cholesky(self, s: np.ndarray, v: np.ndarray, age: np.ndarray) -> np.ndarray:
         """R_t = lambda^g R_{t'} + sum_m x^{m*} x^{mT} (eq. 5.9); returns R^{-1}[A, refs]."""
