@@ -11,7 +11,7 @@ from pathlib import Path
 import avtrack
 
 LAYERS = [
-    ["errors"],
+    ["errors", "_jit"],
     ["config", "registry"],
     ["io"],
     ["audio", "metrics"],

@@ -28,23 +28,17 @@ the diagonal, ``R = L L^H`` and, for the last ``I`` unknowns ``A`` (the lag-0 co
 
 from __future__ import annotations
 
-import importlib.util
-import os
-import warnings
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from avtrack._jit import available, build_once
+
+__all__ = ["SIGNATURE", "available", "frame_features", "kernel"]
+
 #: the compiled kernel, built on first use (importing Numba costs ~0.5 s, so not at import)
 _KERNEL: Callable[..., bool] | None = None
-
-
-def available() -> bool:
-    """Numba is installed and ``AVTRACK_NO_JIT`` is not set (then the NumPy form is used)."""
-    if os.environ.get("AVTRACK_NO_JIT", "") not in ("", "0"):
-        return False
-    return importlib.util.find_spec("numba") is not None
 
 
 #: the kernel's one signature: C-contiguous arrays as ``DPRTFEstimator`` passes them
@@ -56,40 +50,23 @@ _FAILED = False  # the kernel could not be built here (then the NumPy form is us
 
 
 def kernel() -> Callable[..., bool] | None:
-    """The compiled :func:`frame_features`, or None if Numba cannot build it on this machine.
+    """The compiled :func:`frame_features`, or None if Numba cannot build it on this machine
+    (warned once; the estimator then uses its NumPy form). Built once per process for
+    :data:`SIGNATURE`."""
+    return build_once(globals(), lambda njit, cache: _compile(njit, _FASTMATH, cache),
+                      "DP-RTF kernel")
 
-    Built once per process for :data:`SIGNATURE` (Numba caches the machine code beside this file
-    or in ``~/.cache``; without a writable location it compiles without caching). A failure to
-    build warns once and returns None; the estimator then uses its NumPy form.
-    """
-    global _KERNEL, _FAILED
-    if _KERNEL is None and not _FAILED:
-        try:
-            from numba import njit
 
-            # reassociation lets the dot products vectorise; no "fast" flags that assume
-            # finite values, since a non-positive pivot must still be detected
-            fast = {"reassoc", "contract", "arcp", "nsz"}
-            try:
-                _KERNEL = _compile(njit, fast, cache=True)
-            except RuntimeError:  # no writable cache location (read-only install and home)
-                _KERNEL = _compile(njit, fast, cache=False)
-        except Exception as exc:  # any failure to build: fall back to NumPy, loudly
-            _FAILED = True
-            warnings.warn(
-                f"avtrack: the compiled DP-RTF kernel could not be built ({exc!r}); using the "
-                "NumPy form (about 2x slower; set AVTRACK_NO_JIT=1 to silence this)",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-    return _KERNEL
+#: reassociation lets the dot products vectorise; no "fast" flags that assume finite values,
+#: since a non-positive pivot must still be detected
+_FASTMATH = {"reassoc", "contract", "arcp", "nsz"}
 
 
 def _compile(njit: Callable[..., Any], fastmath: set[str], cache: bool) -> Callable[..., bool]:
     """:func:`frame_features` compiled for :data:`SIGNATURE`, its per-bin steps first (each
     for its own signature, and bound in this module's namespace, where the compiled
-    :func:`frame_features` looks them up). NumPy's error model: a division by zero gives an
-    infinite or NaN feature, which the consistency test rejects, as in the NumPy form."""
+    :func:`frame_features` looks them up). NumPy's error model: a real division by zero gives
+    an infinite or NaN value, as in the NumPy form, not an exception."""
     for name, signature in _STEP_SIGNATURES.items():
         # inlined where called (Numba IR): the same machine code as one function
         globals()[name] = njit(signature, cache=cache, nogil=True, fastmath=fastmath,

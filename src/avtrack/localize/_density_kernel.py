@@ -10,17 +10,17 @@ feed only the mean likelihood ratios of eqs. 5.17-5.19, where a relative error o
 peak (the localizer tests compare with the double-precision form).
 
 :class:`~avtrack.localize.cgmm_eg.CGMMLocalizer` uses it when Numba is available (the
-condition of :func:`avtrack.audio._dprtf_kernel.available`) and NumPy's form otherwise.
+condition of :func:`avtrack._jit.available`) and NumPy's form otherwise.
 """
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
-from avtrack.audio._dprtf_kernel import available
+from avtrack._jit import available, build_once
 
 __all__ = ["available", "kernel", "log_densities", "log_densities_numpy"]
 
@@ -32,25 +32,12 @@ SIGNATURE = "void(f8[::1], f8[::1], i8[::1], f4[:, :, ::1], f4[:, ::1])"
 
 def kernel() -> Callable[..., None] | None:
     """The compiled :func:`log_densities`, or None if Numba cannot build it here (warned once)."""
-    global _KERNEL, _FAILED
-    if _KERNEL is None and not _FAILED:
-        try:
-            from numba import njit
+    return build_once(globals(), _compile, "CGMM densities")
 
-            fast = {"reassoc", "contract", "arcp", "nsz"}
-            try:
-                _KERNEL = njit(SIGNATURE, cache=True, nogil=True, fastmath=fast)(log_densities)
-            except RuntimeError:  # no writable cache location
-                _KERNEL = njit(SIGNATURE, cache=False, nogil=True, fastmath=fast)(log_densities)
-        except Exception as exc:
-            _FAILED = True
-            warnings.warn(
-                f"avtrack: the compiled CGMM densities could not be built ({exc!r}); using "
-                "NumPy's form (set AVTRACK_NO_JIT=1 to silence this)",
-                RuntimeWarning,
-                stacklevel=2,
-            )
-    return _KERNEL
+
+def _compile(njit: Callable[..., Any], cache: bool) -> Callable[..., None]:
+    fast = {"reassoc", "contract", "arcp", "nsz"}
+    return njit(SIGNATURE, cache=cache, nogil=True, fastmath=fast)(log_densities)
 
 
 def log_densities(
