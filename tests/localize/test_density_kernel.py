@@ -26,24 +26,40 @@ def _case(seed: int = 0, n_rows: int = 12, n_dirs: int = 7, n_feats: int = 5):
     return f, rows, coef
 
 
+def _run(fn, f, rows, coef32):
+    out = np.empty((rows.size, coef32.shape[-1]), dtype=np.float32)
+    fn(f.real.copy(), f.imag.copy(), rows, coef32, out, np.empty(coef32.shape[-1], np.int32))
+    return out
+
+
 @pytest.mark.parametrize("form", ["python", "numpy"])
-def test_log_densities_match_the_double_precision_formula(form):
+def test_densities_match_the_double_precision_formula(form):
     f, rows, coef = _case()
-    out = np.empty((rows.size, coef.shape[-1]), dtype=np.float32)
-    fn = _density_kernel.log_densities if form == "python" else (
-        _density_kernel.log_densities_numpy)
-    fn(f.real.copy(), f.imag.copy(), rows, coef.astype(np.float32), out)
+    fn = _density_kernel.densities if form == "python" else _density_kernel.densities_numpy
+    out = _run(fn, f, rows, coef.astype(np.float32))
     expected = densities_from_coefficients(f, coef[rows])
-    np.testing.assert_allclose(np.exp(out), expected, rtol=1e-5, atol=1e-6)
-    assert np.all(out.max(axis=1) == 0.0)  # every row's maximum is factored out
+    np.testing.assert_allclose(out, expected, rtol=1e-5, atol=1e-6)
+    assert np.all(out.max(axis=1) == 1.0)  # every row's maximum is factored out
 
 
 def test_hand_case_one_feature_two_directions():
-    # c = 1 + 1j, means 1 + 1j and 0, sigma^2 = 1: log-densities 0 and -2
+    # c = 1 + 1j, means 1 + 1j and 0, sigma^2 = 1: densities 1 and e^-2
     coef = density_coefficients(np.array([[1 + 1j, 0j]]), 1.0).astype(np.float32)
-    out = np.empty((1, 2), dtype=np.float32)
-    _density_kernel.log_densities(np.array([1.0]), np.array([1.0]), np.array([0]), coef, out)
-    np.testing.assert_allclose(out, [[0.0, -2.0]], atol=1e-6)
+    out = _run(_density_kernel.densities, np.array([1 + 1j]), np.array([0]), coef)
+    np.testing.assert_allclose(out, [[1.0, np.exp(-2.0)]], rtol=1e-6)
+
+
+def test_exponential_matches_numpy_over_the_whole_range():
+    """Cephes' expf as written here against numpy.exp, from 0 down to -87 (and below: ~1e-38)."""
+    x = np.concatenate([np.linspace(-87.0, 0.0, 20001), [-90.0, -200.0]]).astype(np.float32)
+    # one feature, one row of coefficients: l_d = x_d (the constant row), maximum 0
+    coef = np.zeros((1, 3, x.size), dtype=np.float32)
+    coef[0, 2] = x
+    out = _run(_density_kernel.densities, np.array([0j]), np.array([0]), coef)[0]
+    ref = np.exp(x.astype(np.float64))
+    normal = x >= -87.0
+    np.testing.assert_allclose(out[normal], ref[normal], rtol=1e-6)
+    assert np.all((out[~normal] > 0) & (out[~normal] < 2e-38))
 
 
 @pytest.mark.skipif(not _density_kernel.available(),
@@ -51,11 +67,9 @@ def test_hand_case_one_feature_two_directions():
 def test_compiled_kernel_gives_the_python_forms_numbers():
     f, rows, coef = _case(3, n_rows=40, n_dirs=50, n_feats=30)
     c32 = coef.astype(np.float32)
-    compiled = np.empty((rows.size, 50), dtype=np.float32)
-    plain = np.empty_like(compiled)
-    _density_kernel.kernel()(f.real.copy(), f.imag.copy(), rows, c32, compiled)
-    _density_kernel.log_densities(f.real.copy(), f.imag.copy(), rows, c32, plain)
-    np.testing.assert_allclose(compiled, plain, atol=1e-4)
+    compiled = _run(_density_kernel.kernel(), f, rows, c32)
+    plain = _run(_density_kernel.densities, f, rows, c32)
+    np.testing.assert_allclose(compiled, plain, rtol=1e-4, atol=1e-6)
 
 
 def test_mean_ratios_in_single_precision_match_double():

@@ -598,11 +598,13 @@ class CGMMLocalizer(Localizer):
         ``(I-1, F)`` as the DP-RTF estimator gives them; returns ``(K, D)`` float32."""
         rows = np.flatnonzero(valid)
         f = values.ravel()[rows]
-        out = np.empty((rows.size, self._coef32.shape[-1]), dtype=np.float32)
+        n_dirs = self._coef32.shape[-1]
+        out = np.empty((rows.size, n_dirs), dtype=np.float32)
         kern = _density_kernel.kernel() if self._compiled else None
-        form = _density_kernel.log_densities_numpy if kern is None else kern
-        form(np.ascontiguousarray(f.real), np.ascontiguousarray(f.imag), rows, self._coef32, out)
-        return np.exp(out, out=out)
+        form = _density_kernel.densities_numpy if kern is None else kern
+        form(np.ascontiguousarray(f.real), np.ascontiguousarray(f.imag), rows, self._coef32, out,
+             np.empty(n_dirs, dtype=np.int32))
+        return out
 
     def _frame(
         self, weights: np.ndarray, dens: np.ndarray | None
