@@ -77,7 +77,13 @@ def overrides(items: list[str]) -> dict:
     return configs
 
 
-def _number(text: str) -> int | float | bool:
+def _number(text: str) -> int | float | bool | tuple | None:
+    """A ``--set`` value: true/false, none, a number, or numbers separated by commas (a
+    tuple, e.g. ``position_velocities_deg_s=-30,0,30``)."""
+    if "," in text:
+        return tuple(_number(part) for part in text.split(",") if part.strip())
+    if text.lower() == "none":
+        return None
     if text.lower() in ("true", "false"):
         return text.lower() == "true"
     try:

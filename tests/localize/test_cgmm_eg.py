@@ -23,6 +23,7 @@ from avtrack.localize.cgmm_eg import (
     mean_ratios,
     place_presence,
     ratios_from_densities,
+    snap_to_presence,
     spatial_smoothing,
 )
 from avtrack.localize.grid import DirectionGrid
@@ -153,6 +154,7 @@ def test_spatial_smoothing_hand_case_wraps_around():
         ({"position_smoothing": 1.5}, "position_smoothing must be <= 1"),
         ({"position_share": -0.1}, "position_share must be a finite number >= 0"),
         ({"presence_reach": -1}, "presence_reach must be an integer >= 0"),
+        ({"snap_reach": 1.5}, "snap_reach must be an integer >= 0"),
         ({"still_prior": 0.0}, "still_prior must be None or in"),
         ({"still_prior": 1.0}, "still_prior must be None or in"),
         ({"still_prior": True}, "still_prior must be None or in"),
@@ -244,6 +246,55 @@ def test_place_presence_moves_the_slow_mass_onto_the_fast_peak():
     v2 = v.copy()
     v2[8] = 0.3
     assert place_presence(v2, w, g, 2)[8] == pytest.approx(0.3 * 0.05 / 0.43)
+
+
+def test_snap_moves_a_peak_of_v_to_the_peak_of_w_beside_it():
+    g = DirectionGrid.azimuths(30.0)  # 12 azimuths, circular
+    # two peaks of v: cell 3 (its slopes cells 0..6) and cell 9 (cells 7..11)
+    v = np.array([0.02, 0.05, 0.2, 0.5, 0.2, 0.05, 0.02, 0.01, 0.02, 0.05, 0.03, 0.025])
+    heat = v.copy()
+    w = np.full(12, 0.02)
+    w[4] = 0.5  # the slow weights' peak one cell beside v's first peak
+    w[[10, 11]] = [0.1, 0.2]  # and two cells beside the second one (climbing from 9: 11)
+    out = snap_to_presence(heat, v, w, g, 1)
+    # the first peak's slopes move one cell up, as one block; the second stays (2 > reach)
+    assert np.argmax(out) == 4
+    np.testing.assert_allclose(out[[3, 4, 5]], heat[[2, 3, 4]])
+    assert out[9] == heat[9] and out[10] == heat[10]
+    assert out.sum() == pytest.approx(heat.sum())
+    out2 = snap_to_presence(heat, v, w, g, 2)  # within reach 2 the second moves too
+    assert out2[11] == heat[9]
+    np.testing.assert_array_equal(snap_to_presence(heat, v, w, g, 0), heat)
+
+
+def test_snap_wraps_around_on_a_circular_grid_and_stops_at_the_ends_of_a_line():
+    circ = DirectionGrid.azimuths(30.0)
+    v = np.full(12, 0.01)
+    v[0] = 0.8
+    w = np.full(12, 0.01)
+    w[11] = 0.8  # one cell below 0, across the wrap
+    out = snap_to_presence(v, v, w, circ, 1)
+    assert np.argmax(out) == 11 and out.sum() == pytest.approx(v.sum())
+    line = DirectionGrid(np.arange(0.0, 181.0, 30.0), np.zeros(1))  # 7 azimuths, not circular
+    v = np.full(7, 0.01)
+    v[5] = 0.8
+    w = np.full(7, 0.01)
+    w[6] = 0.8
+    out = snap_to_presence(v, v, w, line, 1)
+    assert np.argmax(out) == 6 and out.sum() == pytest.approx(v.sum())  # cell 6 keeps 5 and 6
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(0, 4))
+def test_snap_keeps_the_maps_mass_and_moves_no_value_further_than_reach(seed, reach):
+    rng = np.random.default_rng(seed)
+    g = DirectionGrid.sphere(30.0, (0.0, 30.0))  # two elevation rows of 12
+    v, w, heat = rng.random((3, g.size))
+    out = snap_to_presence(heat, v, w, g, reach)
+    assert out.sum() == pytest.approx(heat.sum())
+    assert np.all(out >= 0)
+    # each row keeps its own mass: cells move only along azimuth
+    np.testing.assert_allclose(out.reshape(2, 12).sum(1), heat.reshape(2, 12).sum(1))
 
 
 def test_position_weights_follow_eqs_5_17_to_5_19_with_their_own_step():
