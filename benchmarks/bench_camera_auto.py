@@ -4,9 +4,10 @@ against the true one.
 Per scene (``avtrack simulate walkout|meeting``, evaluation seeds >= 100): the true camera in
 the array's frame (``camera.json`` and the array's pose in ``scene.yaml``, turned into the
 array's frame as a user's CAMERA.yaml is), the estimate of :func:`avtrack.av.calibrate.fit_camera`
-from the scene's detections and the DP-RTF + EG peaks of its recording, the errors of yaw,
-pitch and focal length, and MOTA / IDF1 / DER of the direction-space tracker with each camera
-(the same detections, appearance and audio peaks).
+from the scene's detections and the peaks of its recording's calibration maps
+(``CALIBRATION_LOCALIZER``, as ``track-av`` places a camera), the errors of yaw, pitch and
+focal length, and MOTA / IDF1 / DER of the direction-space tracker with each camera (the same
+detections, appearance and audio peaks of the persons' maps).
 
 Usage::
 
@@ -60,14 +61,17 @@ def run_scene(path: Path) -> dict:
     from avtrack.audio.arrays import load_array
     from avtrack.av.calibrate import camera_evidence, fit_camera
     from avtrack.av.geometry import CameraGeometry
-    from avtrack.av.persons_scene import localize_scene, track_persons
+    from avtrack.av.persons_scene import CALIBRATION_LOCALIZER, localize_scene, track_persons
     from avtrack.io.doa import wrap_azimuth
     from avtrack.io.scene import load_scene
 
     scene = load_scene(path)
     true = array_frame_camera(scene)
-    peaks, span = localize_scene(scene, load_array(path / "array.json"), scene.n_frames)
-    ev = camera_evidence(scene.detections, peaks, scene.fps, scene.image_size)
+    array = load_array(path / "array.json")
+    peaks, span = localize_scene(scene, array, scene.n_frames)
+    # the camera is placed by the calibration localizer's peaks, as track-av does
+    placing, _ = localize_scene(scene, array, scene.n_frames, CALIBRATION_LOCALIZER)
+    ev = camera_evidence(scene.detections, placing, scene.fps, scene.image_size)
     fit = fit_camera(ev)
     est = fit.camera
     row = {

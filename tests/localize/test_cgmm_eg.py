@@ -297,6 +297,29 @@ def test_snap_keeps_the_maps_mass_and_moves_no_value_further_than_reach(seed, re
     np.testing.assert_allclose(out.reshape(2, 12).sum(1), heat.reshape(2, 12).sum(1))
 
 
+def test_the_fast_maps_run_keeps_the_thesis_weights_of_dprtf_eg():
+    """``keep_presence``: after each ``process`` the fast localizer's ``w_t`` are exactly the
+    ``dprtf-eg`` heat maps of the same blocks."""
+    from avtrack.audio.arrays import builtin_array
+    from avtrack.localize import make_localizer
+
+    array = builtin_array("nao4")
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((array.n_mics, 16000))
+    x[:, 4000:] += np.roll(x[:1, 4000:], 1, axis=1)  # a coherent source after 0.25 s
+    eg = make_localizer("dprtf-eg", array)
+    fast = make_localizer("dprtf-eg-fast", array)
+    fast.keep_presence = True
+    eg.reset()
+    fast.reset()
+    for i in range(0, x.shape[1], 3000):
+        a = eg.process(x[:, i : i + 3000])
+        b = fast.process(x[:, i : i + 3000])
+        if len(a):
+            np.testing.assert_array_equal(fast.presence, a.weights)
+            assert not np.array_equal(b.weights, a.weights)
+
+
 def test_position_weights_follow_eqs_5_17_to_5_19_with_their_own_step():
     cfg = EGConfig(position_step=0.3, position_smoothing=0.0, position_share=0.04)
     loc = _eg(cfg)

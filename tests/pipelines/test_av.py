@@ -10,6 +10,7 @@ from avtrack.audio.arrays import load_array
 from avtrack.audio.recording import FS, ArrayRecording, read_array_audio
 from avtrack.av.persons import PersonConfig
 from avtrack.av.persons_scene import (
+    CALIBRATION_LOCALIZER,
     PERSONS_LOCALIZER,
     audio_peak_floor,
     audio_peaks,
@@ -149,6 +150,30 @@ def test_block_wise_localization_is_the_whole_signals(own):
     bare = localize_for_persons(ArrayRecording(wav, array, quiet=True), 25.0, n_frames,
                                 vad=False)
     assert bare.heat is None and bare.activity is None  # only the peaks are kept
+
+
+def test_calibration_peaks_come_from_the_same_run_and_leave_the_persons_maps_alone(own):
+    """With ``calibration`` the persons' maps and peaks are those of ``dprtf-eg`` (the thesis
+    weights kept by the calibration localizer's run), and the calibration peaks those of
+    :data:`CALIBRATION_LOCALIZER` run on its own."""
+    scene_dir, _, array = own
+    wav = scene_dir / "audio.wav"
+    audio = read_array_audio(wav, array, quiet=True)
+    grid = localizer_grid(array)
+    n_frames = int(np.floor(audio.shape[1] / FS * 25.0 + 1e-9))
+    fast = make_localizer(CALIBRATION_LOCALIZER, array, grid).run(audio)
+    want = audio_peaks(fast.weights, fast.time_s, grid, 25.0, n_frames,
+                       floor=audio_peak_floor(CALIBRATION_LOCALIZER))
+    rec = ArrayRecording(wav, array, quiet=True, block_s=0.3)
+    plain = localize_for_persons(rec, 25.0, n_frames, vad=False)
+    both = localize_for_persons(rec, 25.0, n_frames, vad=False, calibration=True)
+    assert plain.calibration_peaks is None
+    for a, b in zip(both.peaks, plain.peaks, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert len(both.calibration_peaks) == n_frames
+    for a, b in zip(both.calibration_peaks, want, strict=True):
+        np.testing.assert_allclose(a, b)
+    assert any(len(a) for a in want)
 
 
 def test_own_recording_in_blocks_equals_one_block(own):

@@ -604,7 +604,16 @@ class CGMMLocalizer(Localizer):
     Subclasses define :meth:`_update` (how the weights follow the frame's likelihood ratios).
     Their ``Config`` must have ``variance``, ``silence_rate``, ``smoothing``,
     ``min_features`` and ``dprtf``.
+
+    Set :attr:`keep_presence` to also keep, after each :meth:`process`, the weights ``w_t``
+    of its frames in :attr:`presence` ``(T, D)``: for a map that is not ``w_t`` itself (the
+    position weights of :class:`DPRTFEGFast`), the thesis's map of the same run.
     """
+
+    #: keep ``w_t`` of every frame of the last :meth:`process` in :attr:`presence`
+    keep_presence: bool = False
+    #: ``(T, D)`` weights ``w_t`` of the last :meth:`process`'s frames (with keep_presence)
+    presence: np.ndarray | None = None
 
     def _setup(self) -> None:
         freqs = self.stft_config.freqs_hz
@@ -637,6 +646,7 @@ class CGMMLocalizer(Localizer):
         out = np.empty((t_, self.grid.size))
         n_obs = np.zeros(t_, dtype=np.int64)
         w = self.weights
+        kept = np.empty((t_, self.grid.size)) if self.keep_presence else None
         for t in range(t_):
             values, valid = self._estimator.step(spec[:, :, t])
             k = int(np.count_nonzero(valid))
@@ -645,7 +655,10 @@ class CGMMLocalizer(Localizer):
                 dens = self._densities(values, valid)
             w, out[t] = self._frame(w, dens)
             n_obs[t] = k
+            if kept is not None:
+                kept[t] = w
         self.weights = w
+        self.presence = kept
         return out, n_obs
 
     def _densities(self, values: np.ndarray, valid: np.ndarray) -> np.ndarray:

@@ -6,7 +6,8 @@ persons tracked in the microphone array's direction space.
 (:func:`localize_for_persons`), keeping per 8 ms frame only the heat map the speaker turns are
 refined with and per video frame its peaks; the voice activity is found in a second pass over
 the blocks. Memory grows with the recording by those maps (72 directions x 8 bytes per 8 ms,
-about 43 MB for ten minutes) and the tables of tracks, not by its samples. ``voices`` is the
+about 43 MB for ten minutes; half as much again in single precision for the maps that place or
+check the camera) and the tables of tracks, not by its samples. ``voices`` is the
 exception: the beamformer reads the whole recording at once.
 """
 
@@ -24,6 +25,7 @@ from avtrack.av.calibrate import CameraCheck, CameraFit, camera_evidence, check_
 from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
 from avtrack.av.persons import PersonConfig
 from avtrack.av.persons_scene import (
+    CALIBRATION_LOCALIZER,
     PERSONS_LOCALIZER,
     audio_peak_floor,
     audio_peaks,
@@ -146,6 +148,9 @@ class PersonsAudio:
         Span of the grid's azimuths.
     activity : VoiceActivity or None
         Voice activity of microphone 0 (None when not asked for or not installed).
+    calibration_peaks : list of ndarray or None
+        Peak azimuths per video frame of :data:`CALIBRATION_LOCALIZER`'s maps, which place
+        the camera (None when not asked for).
     """
 
     peaks: list[np.ndarray]
@@ -153,6 +158,7 @@ class PersonsAudio:
     grid: DirectionGrid
     span_deg: float
     activity: VoiceActivity | None
+    calibration_peaks: list[np.ndarray] | None = None
 
 
 def localize_for_persons(
@@ -162,13 +168,15 @@ def localize_for_persons(
     *,
     vad: bool = True,
     localizer: str = PERSONS_LOCALIZER,
+    calibration: bool = False,
     stage: Stage = no_stage,
 ) -> PersonsAudio:
     """The recording's heat maps and their peaks per video frame
     (:func:`~avtrack.av.persons_scene.audio_peaks`), localized block by block, with the voice
     activity of microphone 0 (``vad``, when the detector is installed; a warning when not)
     found in a second pass: what the whole signal gives, with memory of one block besides the
-    heat maps.
+    heat maps. ``calibration``: also the peaks of :data:`CALIBRATION_LOCALIZER` (from the
+    same run when ``localizer`` is the map it keeps as :attr:`presence`, ``dprtf-eg``).
 
     Parameters
     ----------
@@ -183,36 +191,59 @@ def localize_for_persons(
     stage : Stage
     """
     grid = localizer_grid(recording.array)
-    loc = make_localizer(localizer, recording.array, grid)
+    locs = _localizers(localizer, calibration, recording.array, grid)
     with_vad = vad and vad_available()
     if vad and not with_vad:
         warn_vad_missing()
     level = AmplitudeLevel(recording.info.samples) if with_vad else None
-    n = loc.stft_config.n_frames(recording.info.samples)
+    n = locs[0].stft_config.n_frames(recording.info.samples)
     weights = np.empty((n, grid.size))
+    calib = np.empty((n, grid.size), dtype=np.float32) if calibration else None
     n_obs = np.empty(n, dtype=np.int64)
     done = 0
-    loc.reset()
+    for loc in locs:
+        loc.reset()
     with stage(f"localizing {recording.info.samples / FS:.1f} s"):
         for block in recording.blocks():
-            part = loc.process(block)
-            weights[done : done + len(part)] = part.weights
-            n_obs[done : done + len(part)] = part.n_observations
-            done += len(part)
+            parts = [loc.process(block) for loc in locs]
+            k = len(parts[0])
+            if calib is not None:
+                calib[done : done + k] = parts[-1].weights
+                if len(locs) == 1 and k:  # the thesis weights of the same run
+                    parts[0] = replace(parts[0], weights=locs[0].presence)
+            weights[done : done + k] = parts[0].weights
+            n_obs[done : done + k] = parts[0].n_observations
+            done += k
             if level is not None:
                 level.add(block[0])
     if done != n:
         raise RuntimeError(f"localize_for_persons: {done} STFT frames, {n} expected")
     frames = np.arange(n)
-    heat = HeatMaps(frames, loc.stft_config.frame_times(frames), weights, n_obs)
+    heat = HeatMaps(frames, locs[0].stft_config.frame_times(frames), weights, n_obs)
     peaks = audio_peaks(heat.weights, heat.time_s, grid, fps, n_frames,
                         floor=audio_peak_floor(localizer))
+    calibration_peaks = None if calib is None else audio_peaks(
+        calib, heat.time_s, grid, fps, n_frames, floor=audio_peak_floor(CALIBRATION_LOCALIZER))
     activity = None
     if level is not None:
         with stage("voice activity"):
             activity = voice_activity_blocks((b[0] for b in recording.blocks()), level.value())
     return PersonsAudio(peaks, heat if activity is not None else None, grid, grid_span(grid),
-                        activity)
+                        activity, calibration_peaks)
+
+
+def _localizers(localizer: str, calibration: bool, array: MicArray,
+                grid: DirectionGrid) -> list:
+    """The localizers :func:`localize_for_persons` runs: ``localizer``'s; with
+    ``calibration`` also :data:`CALIBRATION_LOCALIZER`'s, last, or that one alone keeping
+    its thesis weights when they are ``localizer``'s map."""
+    if not calibration:
+        return [make_localizer(localizer, array, grid)]
+    calib = make_localizer(CALIBRATION_LOCALIZER, array, grid)
+    if localizer == "dprtf-eg":
+        calib.keep_presence = True
+        return [calib]
+    return [make_localizer(localizer, array, grid), calib]
 
 
 def track_own_recording(
@@ -268,12 +299,14 @@ def track_own_recording(
     if use_audio and inputs.doa is not None:
         peaks = azimuths_per_frame(read_doa_csv(inputs.doa), fps, n_frames)
     elif recording is not None:
-        audio = localize_for_persons(recording, fps, n_frames, vad=vad, stage=stage)
+        audio = localize_for_persons(recording, fps, n_frames, vad=vad, calibration=True,
+                                     stage=stage)
         peaks = audio.peaks
     fit = check = None
     if peaks is not None:
-        camera, fit, check = _calibrate(inputs, camera, dets, peaks, fps, image_size, n_frames,
-                                        strict, stage)
+        camera, fit, check = _calibrate(
+            inputs, camera, dets, peaks if audio is None else audio.calibration_peaks, fps,
+            image_size, n_frames, strict, stage)
     if camera is None:
         raise InputError("--camera auto needs the audio's directions")
     vcfg = config.visual
