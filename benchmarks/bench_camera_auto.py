@@ -64,6 +64,7 @@ def run_scene(path: Path) -> dict:
     from avtrack.av.persons_scene import CALIBRATION_LOCALIZER, localize_scene, track_persons
     from avtrack.io.doa import wrap_azimuth
     from avtrack.io.scene import load_scene
+    from avtrack.localize.grid import line_axis
 
     scene = load_scene(path)
     true = array_frame_camera(scene)
@@ -71,7 +72,8 @@ def run_scene(path: Path) -> dict:
     peaks, span = localize_scene(scene, array, scene.n_frames)
     # the camera is placed by the calibration localizer's peaks, as track-av does
     placing, _ = localize_scene(scene, array, scene.n_frames, CALIBRATION_LOCALIZER)
-    ev = camera_evidence(scene.detections, placing, scene.fps, scene.image_size)
+    ev = camera_evidence(scene.detections, placing, scene.fps, scene.image_size,
+                         line_axis=line_axis(array))
     fit = fit_camera(ev)
     est = fit.camera
     row = {

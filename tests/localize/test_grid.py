@@ -120,6 +120,29 @@ def test_elevation_support_follows_the_array_geometry():
     assert DirectionGrid.for_array(line).n_elevations == 1
 
 
+def test_a_line_of_microphones_hears_an_elevated_source_nearer_its_axis():
+    from avtrack.localize.grid import heard_azimuth, line_axis
+
+    pair = MicArray("pair", [[0.0, 0.09, 0.0], [0.0, -0.09, 0.0]])  # axis y, front along x
+    axis = line_axis(pair)
+    np.testing.assert_allclose(np.abs(axis), [0.0, 1.0, 0.0], atol=1e-12)
+    square = MicArray("square", [[0.02, 0.02, 0], [-0.02, 0.02, 0], [-0.02, -0.02, 0],
+                                 [0.02, -0.02, 0]])
+    assert line_axis(square) is None
+    # horizontal sources are heard where they are, either sign of the axis, front and back
+    az = np.array([-150.0, -90.0, -30.0, 0.0, 30.0, 90.0, 150.0])
+    d = np.column_stack([np.cos(np.radians(az)), np.sin(np.radians(az)), np.zeros(az.size)])
+    np.testing.assert_allclose(heard_azimuth(d, axis), az, atol=1e-9)
+    np.testing.assert_allclose(heard_azimuth(d, -axis), az, atol=1e-9)
+    # 30 degrees to the left, 40 up: the angle from the axis is acos(cos 40 sin 30), so the
+    # line hears asin(cos 40 sin 30) = 22.5 degrees
+    e, a = np.radians(40.0), np.radians(30.0)
+    up = np.array([[np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)]])
+    want = np.degrees(np.arcsin(np.cos(e) * np.sin(a)))
+    assert heard_azimuth(up, axis)[0] == pytest.approx(want)
+    assert want == pytest.approx(22.5, abs=0.1)
+
+
 def test_azimuth_profile_sums_or_maxes_over_elevations():
     from avtrack.localize.grid import azimuth_profile
 

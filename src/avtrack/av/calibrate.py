@@ -57,6 +57,7 @@ from avtrack.av.geometry import HEAD_HEIGHT_M
 from avtrack.io.camera import PinholeCamera
 from avtrack.io.doa import wrap_azimuth
 from avtrack.io.mot import MOTData
+from avtrack.localize.grid import heard_azimuth
 
 #: Residual (degrees) within which an audio direction counts as matching a box in the search.
 MATCH_DEG = 4.0
@@ -91,6 +92,10 @@ class CameraEvidence:
         Image size, pixels.
     n_directions : int
         Audio directions in frames with at least one box.
+    line_axis : ndarray (3,) or None
+        The axis of a line of microphones (:func:`~avtrack.localize.grid.line_axis`): a box's
+        direction is then compared as the line hears it
+        (:func:`~avtrack.localize.grid.heard_azimuth`).
     """
 
     direction: np.ndarray
@@ -103,6 +108,7 @@ class CameraEvidence:
     width: int
     height: int
     n_directions: int
+    line_axis: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n = np.shape(self.direction)[0]
@@ -140,6 +146,7 @@ def camera_evidence(
     image_size: tuple[int, int],
     elevations: list[np.ndarray] | None = None,
     box_height_m: float = HEAD_HEIGHT_M,
+    line_axis: np.ndarray | None = None,
 ) -> CameraEvidence:
     """The pairs (audio direction, box) of a recording.
 
@@ -158,6 +165,9 @@ def camera_evidence(
     box_height_m : float
         Height in metres of what the boxes outline (a head by default; a face for a face
         detector): the evidence keeps the height of the head box of the same depth.
+    line_axis : ndarray (3,), optional
+        The array's axis when its microphones are on a line
+        (:func:`~avtrack.localize.grid.line_axis`).
     """
     if not (math.isfinite(box_height_m) and box_height_m > 0):
         raise ValueError(f"camera_evidence: box_height_m must be > 0, got {box_height_m!r}")
@@ -195,7 +205,8 @@ def camera_evidence(
     cat = {key: (np.concatenate(v) if v else np.zeros(0)) for key, v in cols.items()}
     ok = np.isfinite(cat["u"]) & np.isfinite(cat["v"]) & (cat["h"] > 0)
     return CameraEvidence(cat["d"][ok].astype(np.int64), cat["az"][ok], cat["el"][ok],
-                          cat["u"][ok], cat["v"][ok], cat["h"][ok], cat["t"][ok], w, h, k)
+                          cat["u"][ok], cat["v"][ok], cat["h"][ok], cat["t"][ok], w, h, k,
+                          None if line_axis is None else np.asarray(line_axis, dtype=float))
 
 
 def _rotation(yaw_deg: float, pitch_deg: float) -> np.ndarray:
@@ -209,12 +220,16 @@ def predicted_directions(
     ev: CameraEvidence, yaw_deg: float, pitch_deg: float, focal_px: float,
     position: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Azimuth and elevation (degrees, ``(P,)``) from the array of each pair's box."""
+    """Azimuth and elevation (degrees, ``(P,)``) from the array of each pair's box; the
+    azimuth as a line of microphones hears it when the evidence has a ``line_axis``."""
     s = HEAD_HEIGHT_M / np.maximum(ev.h, 1.0)
     xc = np.column_stack([s * (ev.u - 0.5 * ev.width), s * (ev.v - 0.5 * ev.height),
                           s * focal_px])  # X_c = (H / h) (u - cx, v - cy, f)
     a = xc @ _rotation(yaw_deg, pitch_deg) + position  # A = Rᵀ X_c + p
-    az = np.degrees(np.arctan2(a[:, 1], a[:, 0]))
+    if ev.line_axis is not None:
+        az = heard_azimuth(a, ev.line_axis)
+    else:
+        az = np.degrees(np.arctan2(a[:, 1], a[:, 0]))
     el = np.degrees(np.arctan2(a[:, 2], np.hypot(a[:, 0], a[:, 1])))
     return az, el
 

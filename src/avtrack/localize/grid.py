@@ -230,6 +230,33 @@ def elevation_support(array: MicArray) -> str:
     return "full"
 
 
+def line_axis(array: MicArray) -> np.ndarray | None:
+    """The unit axis ``(3,)`` of collinear microphones (two, or more on a line: singular values
+    as in :func:`elevation_support`), or None. Such an array hears only the angle between a
+    source's direction and its axis: a source above its plane is heard at the horizontal
+    direction at the same angle from the axis (the cone of confusion), nearer the axis."""
+    rel = array.positions - array.centre
+    if array.n_mics < 2:
+        return None
+    _, s, vt = np.linalg.svd(rel, full_matrices=False)
+    if s[0] <= 0 or (s.size > 1 and s[1] >= FLAT_RATIO * s[0]):
+        return None
+    return vt[0] / np.linalg.norm(vt[0])
+
+
+def heard_azimuth(direction: np.ndarray, axis: np.ndarray) -> np.ndarray:
+    """Azimuth (degrees, ``(N,)``) at which a line of microphones along the horizontal unit
+    ``axis`` ``(3,)`` hears each direction ``(N, 3)``: the horizontal direction at the same
+    angle from the axis, on the same side of it."""
+    d = direction / np.linalg.norm(direction, axis=1, keepdims=True)
+    a = np.asarray(axis, dtype=float)
+    a_h = a[:2] / max(float(np.hypot(a[0], a[1])), 1e-12)
+    cos_ang = np.clip(d @ a, -1.0, 1.0)
+    side = np.where(a_h[0] * d[:, 1] - a_h[1] * d[:, 0] >= 0.0, 1.0, -1.0)
+    az = np.degrees(np.arctan2(a_h[1], a_h[0]) + side * np.arccos(cos_ang))
+    return (az + 180.0) % 360.0 - 180.0
+
+
 #: How :func:`azimuth_profile` reduces the elevations of one azimuth: ``"sum"`` for maps that
 #: are distributions over the candidates (CGMM weights), ``"max"`` for power maps (SRP-PHAT).
 PROFILE_REDUCTIONS = ("sum", "max")

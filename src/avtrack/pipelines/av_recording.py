@@ -46,7 +46,7 @@ from avtrack.io.doa import azimuths_per_frame, directions_per_frame, read_doa_cs
 from avtrack.io.mot import MOTData, read_mot
 from avtrack.io.video import VideoInfo, iter_frames, probe_video
 from avtrack.localize import HeatMaps, make_localizer
-from avtrack.localize.grid import DirectionGrid
+from avtrack.localize.grid import DirectionGrid, line_axis
 from avtrack.pipelines.av import AVRun, beamform_voices
 from avtrack.pipelines.mot import (
     Stage,
@@ -438,7 +438,8 @@ def _calibrate(
     elevations = None
     if inputs.doa is not None:
         peaks, elevations = directions_per_frame(read_doa_csv(inputs.doa), fps, n_frames)
-    ev = camera_evidence(dets, peaks, fps, image_size, elevations, box_height(inputs))
+    axis = None if inputs.array is None else line_axis(inputs.array)
+    ev = camera_evidence(dets, peaks, fps, image_size, elevations, box_height(inputs), axis)
     if camera is None:
         try:
             with stage("estimating the camera from the people seen talking"):
