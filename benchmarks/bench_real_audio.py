@@ -145,7 +145,7 @@ def localizer_scores(rec: Recording, array: MicArray, x: np.ndarray, method: str
     t0 = time.perf_counter()
     heat = loc.run(x)
     elapsed = time.perf_counter() - t0
-    table = peak_table(heat, loc.grid, loc.default_threshold, reduce=loc.profile_reduce)
+    table = peak_table(heat, loc.grid, loc.peak_threshold, reduce=loc.profile_reduce)
     n = len(heat)
     near_any = np.zeros(len(table), dtype=bool)
     per_talker = []

@@ -80,7 +80,7 @@ def solo_masks(rec: Recording, array: MicArray,
     frames where it hears nobody."""
     loc = make_localizer("prp-rem", array)
     heat = loc.run(x)
-    table = peak_table(heat, loc.grid, loc.default_threshold, reduce=loc.profile_reduce)
+    table = peak_table(heat, loc.grid, loc.peak_threshold, reduce=loc.profile_reduce)
     weight = np.zeros((len(rec.talkers), len(heat)))  # each talker's strongest peak
     row = {int(f): i for i, f in enumerate(heat.frames)}
     for k, (az, _el) in enumerate(rec.talkers):

@@ -123,7 +123,7 @@ def _track_doa(loc, heat):
     from avtrack.doa.base import gate_maps, heatmap_sequence, make_tracker, map_reading
     from avtrack.localize import peak_table
 
-    doa = peak_table(heat, loc.grid, loc.default_threshold)
+    doa = peak_table(heat, loc.grid, loc.peak_threshold)
     reading = map_reading("vonmises", PERSONS_LOCALIZER)  # that localizer's maps
     weights = gate_maps(heat.weights, loc.evidence(heat.n_observations),
                         reading.evidence_hold_s, loc.stft_config.frame_period_s)

@@ -98,7 +98,8 @@ rate than 16 kHz is resampled.""",
         "--threshold",
         type=float,
         metavar="T",
-        help="peak threshold (default: the method's, e.g. 0.03 for dprtf-eg)",
+        help="peak threshold (default: the method's, e.g. 0.03 for dprtf-eg; for prp-rem "
+        "and dprtf-rem 0.05 a 5-degree cell, scaled with --grid-step)",
     )
     p.add_argument(
         "--floor",
@@ -155,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         localizer = make_localizer(args.method, array, grid, config)
     except (TypeError, ValueError) as exc:
         raise InputError(str(exc), args.config) from None
-    threshold = localizer.default_threshold if args.threshold is None else args.threshold
+    threshold = localizer.peak_threshold if args.threshold is None else args.threshold
     floor = threshold if args.floor is None else min(args.floor, threshold)
     if args.roc:
         floor = min(floor, 0.0)

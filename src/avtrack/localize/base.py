@@ -110,6 +110,10 @@ class Localizer(ABC):
     Config: ClassVar[type] = type(None)
     default_threshold: ClassVar[float] = 0.0
     """Peak threshold giving a reasonable MD/FA balance on simulated rooms (CLI default)."""
+    threshold_cell_deg: ClassVar[float | None] = None
+    """None: ``default_threshold`` holds on any grid. Degrees: the azimuth step it was set
+    for, on maps that spread a talker's mass over a fixed angle, so that the mass of a cell
+    grows with its width: :attr:`peak_threshold` scales it with the grid's step."""
     profile_reduce: ClassVar[str] = "sum"
     """How the elevations of one azimuth combine in the map over azimuth
     (:func:`~avtrack.localize.grid.azimuth_profile`): ``"sum"`` for weights that are a
@@ -145,6 +149,14 @@ class Localizer(ABC):
         self._stft = StreamingSTFT(array.n_mics, self.stft_config)
         self._setup()
         self.reset()
+
+    @property
+    def peak_threshold(self) -> float:
+        """The default peak threshold on this localizer's grid: ``default_threshold``, times
+        the grid's azimuth step over ``threshold_cell_deg`` when that is set."""
+        if self.threshold_cell_deg is None:
+            return self.default_threshold
+        return self.default_threshold * self.grid.azimuth_step_deg / self.threshold_cell_deg
 
     @property
     def n_channels(self) -> int:

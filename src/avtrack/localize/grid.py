@@ -140,6 +140,15 @@ class DirectionGrid:
         return self.azimuth_values.size
 
     @property
+    def azimuth_step_deg(self) -> float:
+        """Width of an azimuth cell, degrees: 360 / n on a circular grid, else the mean gap
+        between neighbouring azimuths (360 for a single azimuth)."""
+        az = self.azimuth_values
+        if self.circular or az.size < 2:
+            return 360.0 / az.size
+        return float(np.ptp(az)) / (az.size - 1)
+
+    @property
     def n_elevations(self) -> int:
         return self.elevation_values.size
 
