@@ -46,6 +46,7 @@ from avtrack.io.doa import azimuths_per_frame, directions_per_frame, read_doa_cs
 from avtrack.io.mot import MOTData, read_mot
 from avtrack.io.video import VideoInfo, iter_frames, probe_video
 from avtrack.localize import HeatMaps, make_localizer
+from avtrack.localize.cgmm_eg import CGMMLocalizer
 from avtrack.localize.grid import DirectionGrid, line_axis
 from avtrack.pipelines.av import AVRun, beamform_voices
 from avtrack.pipelines.mot import (
@@ -240,7 +241,7 @@ def _localizers(localizer: str, calibration: bool, array: MicArray,
     if not calibration:
         return [make_localizer(localizer, array, grid)]
     calib = make_localizer(CALIBRATION_LOCALIZER, array, grid)
-    if localizer == "dprtf-eg":
+    if localizer == "dprtf-eg" and isinstance(calib, CGMMLocalizer):
         calib.keep_presence = True
         return [calib]
     return [make_localizer(localizer, array, grid), calib]
@@ -304,9 +305,10 @@ def track_own_recording(
         peaks = audio.peaks
     fit = check = None
     if peaks is not None:
-        camera, fit, check = _calibrate(
-            inputs, camera, dets, peaks if audio is None else audio.calibration_peaks, fps,
-            image_size, n_frames, strict, stage)
+        placing = peaks if audio is None or audio.calibration_peaks is None else (
+            audio.calibration_peaks)
+        camera, fit, check = _calibrate(inputs, camera, dets, placing, fps, image_size,
+                                        n_frames, strict, stage)
     if camera is None:
         raise InputError("--camera auto needs the audio's directions")
     vcfg = config.visual
