@@ -59,21 +59,24 @@ def score(scene, res) -> dict:
 
 def run_scene(path: Path) -> dict:
     from avtrack.audio.arrays import load_array
+    from avtrack.audio.recording import ArrayRecording
     from avtrack.av.calibrate import camera_evidence, fit_camera
     from avtrack.av.geometry import CameraGeometry
-    from avtrack.av.persons_scene import CALIBRATION_LOCALIZER, localize_scene, track_persons
+    from avtrack.av.persons_scene import track_persons
     from avtrack.io.doa import wrap_azimuth
     from avtrack.io.scene import load_scene
     from avtrack.localize.grid import line_axis
+    from avtrack.pipelines.av_recording import localize_for_persons
 
     scene = load_scene(path)
     true = array_frame_camera(scene)
     array = load_array(path / "array.json")
-    peaks, span = localize_scene(scene, array, scene.n_frames)
-    # the camera is placed by the calibration localizer's peaks, as track-av does
-    placing, _ = localize_scene(scene, array, scene.n_frames, CALIBRATION_LOCALIZER)
-    ev = camera_evidence(scene.detections, placing, scene.fps, scene.image_size,
-                         line_axis=line_axis(array))
+    # one run, as track-av's: the persons' peaks and the peaks that place the camera
+    audio = localize_for_persons(ArrayRecording(path / "audio.wav", array, quiet=True),
+                                 scene.fps, scene.n_frames, vad=False, calibration=True)
+    peaks, span = audio.peaks, audio.span_deg
+    ev = camera_evidence(scene.detections, audio.calibration_peaks, scene.fps,
+                         scene.image_size, line_axis=line_axis(array))
     fit = fit_camera(ev)
     est = fit.camera
     row = {
