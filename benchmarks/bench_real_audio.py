@@ -24,6 +24,7 @@ Usage::
     python benchmarks/bench_real_audio.py                      # all recordings, all methods
     python benchmarks/bench_real_audio.py --markdown real.md   # also write the tables
     python benchmarks/bench_real_audio.py --methods dprtf-eg-fast prp-rem --no-trackers
+    python benchmarks/bench_real_audio.py --methods dprtf-eg-static prp-rem --map dprtf-eg-static
     python benchmarks/bench_real_audio.py --simulated $(seq 0 7) --duration 8 --max-talkers 1 \\
         --array benchmarks/arrays/circle8-r46mm.json       # one talker, an 8-mic circle
 """
@@ -163,9 +164,8 @@ def localizer_scores(rec: Recording, array: MicArray, x: np.ndarray, method: str
 
 
 def tracker_scores(rec: Recording, array: MicArray, x: np.ndarray, tracker: str,
-                   min_active: int) -> dict:
-    stream = DOAStream(array, method=DEFAULT_METHOD, tracker=tracker,
-                       method_config=CONFIGS.get(DEFAULT_METHOD))
+                   min_active: int, method: str = DEFAULT_METHOD) -> dict:
+    stream = DOAStream(array, method=method, tracker=tracker, method_config=CONFIGS.get(method))
     outs = stream.push(x)
     by_id: dict[int, list[float]] = {}
     for out in outs:
@@ -222,7 +222,9 @@ def main(argv: list[str] | None = None) -> int:
                    "or an array file)")
     p.add_argument("--max-talkers", type=int, metavar="N",
                    help="with --simulated: at most the scene's first N talkers")
-    add_set_option(p, "(for dprtf-eg-fast also the trackers' maps)")
+    p.add_argument("--map", default=DEFAULT_METHOD, choices=sorted(LOCALIZERS),
+                   help=f"the localizer whose maps the trackers read (default {DEFAULT_METHOD})")
+    add_set_option(p, "(for the --map localizer also the trackers' maps)")
     args = p.parse_args(argv)
     CONFIGS.update(parse_set(p, args.set))
     if (args.array or args.max_talkers) and not args.simulated:
@@ -276,7 +278,7 @@ def report(recs: list[Recording], args: argparse.Namespace, title: str) -> int:
         if args.no_trackers:
             continue
         for t in args.trackers:
-            s = tracker_scores(rec, array, x, t, args.min_active)
+            s = tracker_scores(rec, array, x, t, args.min_active, args.map)
             tot = track_totals[t]
             tot[0] += len(s["found"])
             tot[1] += len(rec.talkers)
@@ -327,7 +329,7 @@ def report(recs: list[Recording], args: argparse.Namespace, title: str) -> int:
             lines.append(f"- {rec.label}: {100 * len(mine & theirs) / max(len(mine), 1):.0f} %"
                          f" of {len(mine)} frames")
     if not args.no_trackers:
-        lines += ["", f"### Trackers on {DEFAULT_METHOD} maps at their defaults", "",
+        lines += ["", f"### Trackers on {args.map} maps at their defaults", "",
                   "| file | tracker | talker: error of its track (deg) | extra | track means |",
                   "|---|---|---|---:|---|", *track_rows]
         lines += ["", "| tracker | talkers found | extra tracks | mean error (deg) |",

@@ -98,6 +98,7 @@ def test_map_reading_per_localizer():
         assert (fast.observations, fast.uniform_floor) == ("peaks-over-uniform", 1.15)
         assert fast.config == dataclasses.replace(cls(), **FAST_MAP_OVERRIDES[name])
         assert fast.config != cls()
+        assert map_reading(name, "dprtf-eg-static") == fast  # the same kind of map
         for method in ("dprtf-eg", "srp-phat", None):
             r = map_reading(name, method)
             assert r.observations == DEFAULT_OBSERVATIONS[name]

@@ -57,7 +57,7 @@ AUDIO_PEAK_FLOOR = 0.05
 #: of the walkout and meeting scenes (0.03-0.04 within 1 DER point; 0.02 floods the binaural
 #: meeting maps, whose uniform weight is 1/37). See BENCHMARKS.md (direction-space persons,
 #: on ``dprtf-eg-fast`` maps).
-AUDIO_PEAK_FLOORS: dict[str, float] = {"dprtf-eg-fast": 0.035}
+AUDIO_PEAK_FLOORS: dict[str, float] = {"dprtf-eg-fast": 0.035, "dprtf-eg-static": 0.035}
 
 
 def audio_peak_floor(localizer: str | None) -> float:

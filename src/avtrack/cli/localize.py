@@ -83,8 +83,8 @@ rate than 16 kHz is resampled.""",
         "--method",
         choices=sorted(LOCALIZERS),
         default="dprtf-eg-fast",
-        help="default: dprtf-eg-fast (DPRTF-EG with fast position weights; dprtf-eg: the "
-        "thesis's estimator)",
+        help="default: dprtf-eg-fast (DPRTF-EG with fast position weights; dprtf-eg-static: "
+        "the same for talkers who stay in place; dprtf-eg: the thesis's estimator)",
     )
     p.add_argument(
         "-o",

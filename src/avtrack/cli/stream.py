@@ -64,7 +64,8 @@ every 32 ms, one output row per track per frame with bounded latency and memory.
         "--method",
         choices=sorted(LOCALIZERS),
         default="dprtf-eg-fast",
-        help="default: dprtf-eg-fast (dprtf-eg: the thesis's estimator)",
+        help="default: dprtf-eg-fast (dprtf-eg-static: for talkers who stay in place; "
+        "dprtf-eg: the thesis's estimator)",
     )
     p.add_argument(
         "--tracker",

@@ -76,9 +76,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 Track several speakers from a microphone-array recording (thesis ch. 5): frame-wise
 localization every 8 ms, then a variational-EM tracker every 32 ms that keeps the
 identities through speech pauses and says who is speaking. On dprtf-eg-fast maps (the
-default) the tracker reads a map only up to 0.2 s after the localizer's latest frame
-with speech features, so tracks fall silent soon after talking stops. Azimuths are in
-the array frame, counter-clockwise from x, in (-180, 180].""",
+default) and dprtf-eg-static maps the tracker reads a map only up to 0.2 s after the
+localizer's latest frame with speech features, so tracks fall silent soon after talking
+stops. Azimuths are in the array frame, counter-clockwise from x, in (-180, 180].""",
         epilog=EXAMPLES,
     )
     p.add_argument(
@@ -106,7 +106,7 @@ the array frame, counter-clockwise from x, in (-180, 180].""",
         default="dprtf-eg-fast",
         metavar="NAME",
         help="localizer for AUDIO.wav (avtrack localize --method; default dprtf-eg-fast; "
-        "dprtf-eg is the thesis's estimator)",
+        "dprtf-eg-static for talkers who stay in place; dprtf-eg is the thesis's estimator)",
     )
     add_grid_options(p, "0 for azimuth only", "the trackers follow the map summed over "
                      "elevation")
@@ -116,7 +116,7 @@ the array frame, counter-clockwise from x, in (-180, 180].""",
         help="from heat maps: every candidate direction with its weight (all), the same with "
         "each frame's median weight removed (above-median), only the peaks >= 0.05 (peaks), "
         "or only the peaks >= F x the uniform weight (peaks-over-uniform; F = 1.15 on "
-        "dprtf-eg-fast maps, else 1.44); default: peaks-over-uniform on dprtf-eg-fast maps, "
+        "dprtf-eg-fast and -static maps, else 1.44); default: peaks-over-uniform on those, "
         "else above-median for gauss and peaks-over-uniform for vonmises",
     )
     p.add_argument(
@@ -128,7 +128,8 @@ the array frame, counter-clockwise from x, in (-180, 180].""",
     )
     add_algorithm_config_option(
         p, "the --tracker's GaussConfig / VonMisesConfig",
-        ", over its defaults for the localizer's maps (on dprtf-eg-fast maps the trackers report "
+        ", over its defaults for the localizer's maps (on dprtf-eg-fast and -static maps the "
+        "trackers report "
         "the direction predicted 0.15 s ahead, latency compensation; 'lead_s: 0' reports the "
         "filtered one)")
     p.add_argument(

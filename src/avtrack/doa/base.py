@@ -149,7 +149,8 @@ class MapReading:
 #: for a confidence-1 DOA (a peak of weight 0.06 then has κ = 24, about 12° of spread; from
 #: 120, about 21°, a quieter talker 45° from a louder one on a small array was drawn into the
 #: louder one's track). Chosen on development seeds 10-15 of both simulated scene kinds and
-#: on the shared real array recordings (BENCHMARKS.md, acoustic tracking).
+#: on the shared real array recordings (BENCHMARKS.md, acoustic tracking). ``dprtf-eg-static``
+#: maps are the same kind of map and are read the same way.
 FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
     "gauss": {
         "obs_var": 0.0006,
@@ -179,10 +180,13 @@ FAST_MAP_EVIDENCE_HOLD_S = 0.2
 #: ``{method: ("peaks-over-uniform" floor, {tracker: Config overrides})}``
 MAP_READINGS: dict[str, tuple[float, dict[str, dict[str, Any]]]] = {
     "dprtf-eg-fast": (FAST_MAP_UNIFORM_PEAK_FLOOR, FAST_MAP_OVERRIDES),
+    "dprtf-eg-static": (FAST_MAP_UNIFORM_PEAK_FLOOR, FAST_MAP_OVERRIDES),
 }
 
 #: ``{method: MapReading.evidence_hold_s}`` of the maps of :data:`MAP_READINGS` that have one.
-MAP_EVIDENCE_HOLD_S: dict[str, float] = {"dprtf-eg-fast": FAST_MAP_EVIDENCE_HOLD_S}
+MAP_EVIDENCE_HOLD_S: dict[str, float] = {
+    "dprtf-eg-fast": FAST_MAP_EVIDENCE_HOLD_S, "dprtf-eg-static": FAST_MAP_EVIDENCE_HOLD_S,
+}
 
 
 def map_reading(tracker: str, method: str | None = None) -> MapReading:

@@ -856,3 +856,36 @@ class DPRTFEGFast(DPRTFEG):
     """
 
     Config: ClassVar[type] = FastEGConfig
+
+
+@dataclass(frozen=True)
+class StaticEGConfig(FastEGConfig):
+    """:class:`FastEGConfig` for talkers who stay in place: the zero-velocity layer's random
+    walk is 0.03 a cell a frame (``still_smoothing``), and in frames without enough features
+    the heat map relaxes from the last map with evidence at 0.02 a frame
+    (``output_silence_rate``) while the weights keep the thesis's relaxation.
+
+    The fast map's walk of 0.07 lets the layers' mass drift from a standing talker towards a
+    neighbour, and a talker's peak is pulled towards the other (real 4-mic recordings, talkers
+    45 degrees apart: 4-8 degrees). The thesis relaxes the weights only when a frame has no
+    feature at all; here a frame with fewer than ``min_features`` counts as silent, which in
+    real speech includes the gaps between words (about half the frames of the shared
+    recordings): at 0.065 a frame a peak halves in 80 ms and the map loses a talker between
+    words; the map held at 0.02 halves in 0.27 s, about the hangover of a speech activity
+    detector. (Relaxing the weights themselves that slowly keeps stray peaks alive as well:
+    one talker on a 4.6 cm 8-microphone circle then gave duplicate tracks.) The cost: the
+    still layer keeps mass behind a talker who walks, so trackers on these maps trail moving
+    talkers (BENCHMARKS.md, acoustic tracking).
+    """
+
+    output_silence_rate: float | None = 0.02
+    still_smoothing: float | None = 0.03
+
+
+@register_localizer("dprtf-eg-static")
+class DPRTFEGStatic(DPRTFEGFast):
+    """:class:`DPRTFEGFast` for talkers who stay in place (seated meetings, talkers at fixed
+    positions around a robot or a smart speaker): see :class:`StaticEGConfig`. Not in the
+    thesis."""
+
+    Config: ClassVar[type] = StaticEGConfig
