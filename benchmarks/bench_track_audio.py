@@ -92,7 +92,10 @@ LABELS = {
     "dprtf-rem": "DPRTF-REM",
     "dprtf-eg": "DPRTF-EG",
     "dprtf-eg-fast": "DPRTF-EG-fast",
+    "dprtf-eg-static": "DPRTF-EG-static",
 }
+#: localizers scored and read only when asked for (``--methods`` / ``--maps``)
+OPTIONAL = ("dprtf-eg-static",)
 TRACKERS = (
     ("VEM + EG", "gauss"),
     ("vM-VEM + EG", "vonmises"),
@@ -479,9 +482,10 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--no-accuracy", action="store_true")
     p.add_argument("--no-roc", action="store_true", help="skip the trackers' δ sweeps")
     p.add_argument("--markdown", type=Path, help="also write the tables to this file")
-    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS,
+    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS + OPTIONAL,
                    help="frame-wise methods to score (default: all)")
-    p.add_argument("--maps", nargs="+", default=list(TRACKER_MAPS), choices=TRACKER_MAPS,
+    p.add_argument("--maps", nargs="+", default=list(TRACKER_MAPS),
+                   choices=TRACKER_MAPS + OPTIONAL,
                    help="heat maps the trackers run on (default: both)")
     p.add_argument("--trackers", nargs="+", default=[n for _, n in TRACKERS],
                    choices=[n for _, n in TRACKERS], help="trackers to score (default: all)")
