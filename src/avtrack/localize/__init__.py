@@ -11,8 +11,8 @@ Algorithms (registered in :data:`LOCALIZERS`, CLI ``avtrack localize --method NA
   follow a moving talker: position weights with a larger EG step set the peaks' directions,
   the thesis weights their mass (not in the thesis; README, departures).
 - ``dprtf-eg-static`` -- :class:`~avtrack.localize.cgmm_eg.DPRTFEGStatic`: the same for
-  talkers who stay in place: a sharper still layer and a slower relaxation in pauses keep
-  neighbouring talkers apart and quiet ones found (not in the thesis).
+  talkers who stay in place: a sharper still layer keeps neighbouring talkers apart and the
+  map held through the gaps between words keeps quiet ones found (not in the thesis).
 - ``dprtf-rem`` -- :class:`~avtrack.localize.rem.DPRTFREM`: the same features and mixture with
   recursive-EM weights (Li et al., [81] of the thesis).
 - ``prp-rem`` -- :class:`~avtrack.localize.rem.PRPREM`: pair-wise relative phase features with
