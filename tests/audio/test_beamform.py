@@ -41,8 +41,8 @@ def two_talkers():
     for sig, az in ((target, 30.0), (interferer, -60.0)):
         p = pose.position + 1.5 * np.array([np.cos(np.deg2rad(az)), np.sin(np.deg2rad(az)), 0])
         srcs.append(acoustics.MovingSource(sig, np.array([0.0]), p[None, :]))
-    mix, images = acoustics.render(room, array, pose, srcs, n_samples=n, rng=1,
-                                   return_images=True)
+    images = acoustics.render_images(room, array, pose, srcs, n_samples=n, rng=1)
+    mix = images.sum(axis=0)
     noise = acoustics.diffuse_noise(array, n, FS, rng)
     mix = mix + noise * np.sqrt(np.mean(mix**2) / np.mean(noise**2) / 1000)
     return array, mix, images[0, 0], start

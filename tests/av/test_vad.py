@@ -68,7 +68,7 @@ def _two_person_case(hop: float = FRAME_HOP_S):
 
 def test_fusion_keeps_an_overlapping_turn_and_gives_each_voice_its_person():
     persons, heard, w, t_heat, grid, act, _turns = _two_person_case()
-    t, ids, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+    t, ids, speaking = V.fuse_speaking(persons, heard, V.AzimuthProfile(w, t_heat, grid), act)
     np.testing.assert_array_equal(ids, [1, 2])
     overlap = (t > 1.62) & (t < 1.9)
     assert speaking[overlap].all()  # both talk: overlapped speech kept
@@ -78,7 +78,8 @@ def test_fusion_keeps_an_overlapping_turn_and_gives_each_voice_its_person():
     assert speaking[alone2, 1].all() and not speaking[alone2, 0].any()
     assert not speaking[(t < 0.4) | (t > 2.9)].any()  # silence: nobody
     # the voice activity alone makes no speaker: a person the tracker never heard stays silent
-    _, _, none = V.fuse_speaking(persons, np.zeros_like(heard), w, t_heat, grid, act)
+    profile = V.AzimuthProfile(w, t_heat, grid)
+    _, _, none = V.fuse_speaking(persons, np.zeros_like(heard), profile, act)
     assert not none.any()
 
 
@@ -98,9 +99,10 @@ def test_speech_from_where_nobody_is_tracked_is_an_unseen_speaker():
     w[voice, np.argmin(np.abs(grid - 45.0))] = 1.0
     t_vad = (np.arange(300) + 0.5) * 0.01
     act = V.VoiceActivity(t_vad, (t_vad >= 0.5) & (t_vad < 2.5), 0.01)
-    t, _ids, speaking = V.fuse_speaking(persons, np.ones(n_f, bool), w, t_heat, grid, act)
+    profile = V.AzimuthProfile(w, t_heat, grid)
+    t, _ids, speaking = V.fuse_speaking(persons, np.ones(n_f, bool), profile, act)
     assert not speaking.any()
-    centres, unseen = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
+    centres, unseen = V.unclaimed_speakers(persons, speaking, profile, act)
     np.testing.assert_array_equal(centres, [45.0])
     inner = (t > 0.62) & (t < 2.38)
     assert unseen[inner, 0].all() and not unseen[(t < 0.4) | (t > 2.6), 0].any()
@@ -108,7 +110,7 @@ def test_speech_from_where_nobody_is_tracked_is_an_unseen_speaker():
     assert [s.speaker for s in segs] == ["U1"] and abs(segs[0].duration - 2.0) < 0.15
     # from where the person stands, the same voice is theirs
     w2 = np.roll(w, -3, axis=1)  # +45 -> +30 deg
-    _, _, mine = V.fuse_speaking(persons, np.ones(n_f, bool), w2, t_heat, grid, act)
+    _, _, mine = V.fuse_speaking(persons, np.ones(n_f, bool), profile._replace(weights=w2), act)
     assert mine[inner, 0].all()
 
 
@@ -117,7 +119,7 @@ def test_turn_boundaries_are_refined_at_the_audio_frame_rate():
     starts or stops (0.504 s and 2.704 s are not on the video's 40 ms grid, the tracker's
     turns are)."""
     persons, heard, w, t_heat, grid, act, turns = _two_person_case()
-    t, ids, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+    t, ids, speaking = V.fuse_speaking(persons, heard, V.AzimuthProfile(w, t_heat, grid), act)
     segs = V.activity_segments(t, ids, speaking)
     by = {s.speaker: s for s in segs}
     assert set(by) == {"P1", "P2"} and len(segs) == 2
@@ -293,7 +295,7 @@ def test_fusion_person_by_person_equals_the_dense_formula(seed, monkeypatch):
     for values, columns in ((V._CHUNK_VALUES, V._COLUMNS), (72 * 97, 5), (1, 1)):
         monkeypatch.setattr(V, "_CHUNK_VALUES", values)
         monkeypatch.setattr(V, "_COLUMNS", columns)
-        _, _, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+        _, _, speaking = V.fuse_speaking(persons, heard, V.AzimuthProfile(w, t_heat, grid), act)
         np.testing.assert_array_equal(speaking, expected)
 
 
@@ -302,7 +304,8 @@ def test_unclaimed_speakers_in_column_chunks_equal_the_dense_formula(monkeypatch
 
     persons, heard, w, t_heat, grid, act = _random_scene(5, 3, 12.0)
     w[:, 40:43] += 0.5  # a talker nobody stands at, 20-30 deg
-    _, _, speaking = V.fuse_speaking(persons, heard, w, t_heat, grid, act)
+    profile = V.AzimuthProfile(w, t_heat, grid)
+    _, _, speaking = V.fuse_speaking(persons, heard, profile, act)
     k = round(0.2 / FRAME_HOP_S)
     smooth = uniform_filter1d(w, size=k, axis=0, mode="nearest")
     near = np.abs((grid[:, None] - grid[None, :] + 180.0) % 360.0 - 180.0) <= 10.0
@@ -310,9 +313,9 @@ def test_unclaimed_speakers_in_column_chunks_equal_the_dense_formula(monkeypatch
     np.testing.assert_allclose((smooth @ near)[np.arange(best.size), best],
                                V._strongest_direction(w, near, k)[1], rtol=1e-12)
     np.testing.assert_array_equal(V._strongest_direction(w, near, k)[0], best)
-    expected = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
+    expected = V.unclaimed_speakers(persons, speaking, profile, act)
     assert expected[0].size >= 1
     monkeypatch.setattr(V, "_COLUMNS", 3)
-    centres, unseen = V.unclaimed_speakers(persons, speaking, w, t_heat, grid, act)
+    centres, unseen = V.unclaimed_speakers(persons, speaking, profile, act)
     np.testing.assert_array_equal(centres, expected[0])
     np.testing.assert_array_equal(unseen, expected[1])

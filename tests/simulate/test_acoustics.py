@@ -23,6 +23,7 @@ from avtrack.simulate.acoustics import (
     mix_at_snr,
     point_noise,
     render,
+    render_images,
     room_impulse_response,
     room_to_array,
     speech_activity,
@@ -304,13 +305,14 @@ def test_crossfade_interpolates_between_update_points():
     np.testing.assert_allclose(rendered_impulse(4000), 0.5 * (rir(0.2) + rir(0.3)), atol=1e-12)
 
 
-def test_return_images_sum_to_mix():
+def test_images_sum_to_mix():
     arr = builtin_array("nao4")
     room = Room(ROOM_DIMS, 0.2)
     pose = ArrayPose([3.0, 2.5, 1.2])
     s1 = MovingSource.static(_noise(4000, 1), [1, 1, 1.5])
     s2 = MovingSource(_noise(6000, 2), [0.0, 0.3], [[5, 4, 1.5], [4.8, 3.9, 1.6]])
-    mix, images = render(room, arr, pose, [s1, s2], return_images=True, n_samples=5000)
+    mix = render(room, arr, pose, [s1, s2], n_samples=5000)
+    images = render_images(room, arr, pose, [s1, s2], n_samples=5000)
     assert mix.shape == (4, 5000) and images.shape == (2, 4, 5000)
     np.testing.assert_allclose(images.sum(axis=0), mix)
     np.testing.assert_allclose(images[0], render(room, arr, pose, s1, n_samples=5000, rng=0))

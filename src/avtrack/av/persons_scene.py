@@ -334,7 +334,12 @@ def _fused_speech(
     activity: VoiceActivity,
 ) -> list[RTTMSegment]:
     """The tracker's ``turns`` refined by the voice activity at the heat maps' frame rate."""
-    from avtrack.av.vad import activity_segments, fuse_speaking, unclaimed_speakers
+    from avtrack.av.vad import (
+        AzimuthProfile,
+        activity_segments,
+        fuse_speaking,
+        unclaimed_speakers,
+    )
 
     t_row = (persons.frames - 1) / persons.fps
     in_turn = np.zeros(len(persons), dtype=bool)
@@ -344,10 +349,9 @@ def _fused_speech(
     w = heat.weights
     if grid.n_elevations > 1:  # the azimuth profile: sum over elevations
         w = w.reshape(len(heat), grid.n_elevations, grid.n_azimuths).sum(axis=1)
-    time_s, ids, speaking = fuse_speaking(
-        persons, in_turn, w, heat.time_s, grid.azimuth_values, activity)
-    centres, unseen = unclaimed_speakers(
-        persons, speaking, w, heat.time_s, grid.azimuth_values, activity)
+    profile = AzimuthProfile(w, heat.time_s, grid.azimuth_values)
+    time_s, ids, speaking = fuse_speaking(persons, in_turn, profile, activity)
+    centres, unseen = unclaimed_speakers(persons, speaking, profile, activity)
     return sorted(
         activity_segments(time_s, ids, speaking)
         + activity_segments(time_s, np.arange(1, centres.size + 1), unseen, label="U{}"),

@@ -38,6 +38,7 @@ import importlib
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from scipy.ndimage import binary_dilation, uniform_filter1d
@@ -82,6 +83,24 @@ def vad_available() -> bool:
 def warn_vad_missing() -> None:
     """Warn (once per call site) that the detector is missing (:data:`VAD_MISSING_NOTE`)."""
     warnings.warn(VAD_MISSING_NOTE, RuntimeWarning, stacklevel=3)
+
+
+class AzimuthProfile(NamedTuple):
+    """Localizer heat maps reduced to their azimuth profile, with their frame times."""
+
+    weights: np.ndarray  #: (T, A) heat-map mass per frame and azimuth
+    time_s: np.ndarray  #: (T,) frame times (the audio frame grid), seconds
+    azimuths_deg: np.ndarray  #: (A,) azimuth of each column, degrees
+
+    def checked(self) -> AzimuthProfile:
+        """The same profile as float arrays, or ValueError when the shapes disagree."""
+        w = np.asarray(self.weights, dtype=float)
+        t = np.asarray(self.time_s, dtype=float)
+        az = np.asarray(self.azimuths_deg, dtype=float)
+        if w.ndim != 2 or w.shape[0] != t.size or w.shape[1] != az.size:
+            raise ValueError(f"heat maps {w.shape} do not match their times ({t.size}) and "
+                             f"azimuths ({az.size})")
+        return AzimuthProfile(w, t, az)
 
 
 @dataclass(frozen=True)
@@ -364,9 +383,7 @@ def _strongest_direction(w: np.ndarray, near: np.ndarray, k: int) -> tuple[np.nd
 def fuse_speaking(
     persons: PersonsTable,
     tracker_speaking: np.ndarray,
-    heat_weights: np.ndarray,
-    heat_time_s: np.ndarray,
-    azimuths_deg: np.ndarray,
+    profile: AzimuthProfile,
     activity: VoiceActivity,
     *,
     window_deg: float = 10.0,
@@ -386,12 +403,8 @@ def fuse_speaking(
         The tracker's persons (azimuth per video frame).
     tracker_speaking : ndarray (len(persons),) bool
         The tracker's per-frame decision of each row, smoothed into turns (candidates).
-    heat_weights : ndarray (T, A)
-        Localizer heat maps reduced to their azimuth profile.
-    heat_time_s : ndarray (T,)
-        Their frame times (the audio frame grid).
-    azimuths_deg : ndarray (A,)
-        Azimuth of each profile column.
+    profile : AzimuthProfile
+        Localizer heat maps reduced to their azimuth profile ``(T, A)``, their frame times.
     activity : VoiceActivity
     window_deg, smooth_s, share, min_mass, margin_s : float
         See the module docstring.
@@ -410,14 +423,7 @@ def fuse_speaking(
         Person ids.
     speaking : ndarray (J, N) bool
     """
-    w = np.asarray(heat_weights, dtype=float)
-    t_heat = np.asarray(heat_time_s, dtype=float)
-    az_grid = np.asarray(azimuths_deg, dtype=float)
-    if w.ndim != 2 or w.shape[0] != t_heat.size or w.shape[1] != az_grid.size:
-        raise ValueError(
-            f"heat maps {w.shape} do not match their times ({t_heat.size}) and azimuths "
-            f"({az_grid.size})"
-        )
+    w, t_heat, az_grid = profile.checked()
     spk = np.asarray(tracker_speaking, dtype=bool).reshape(-1)
     if spk.size != len(persons):
         raise ValueError(f"tracker_speaking has {spk.size} rows, persons {len(persons)}")
@@ -473,9 +479,7 @@ def _candidate(heard: np.ndarray, frame_of: np.ndarray, r: int) -> np.ndarray:
 def unclaimed_speakers(
     persons: PersonsTable,
     speaking: np.ndarray,
-    heat_weights: np.ndarray,
-    heat_time_s: np.ndarray,
-    azimuths_deg: np.ndarray,
+    profile: AzimuthProfile,
     activity: VoiceActivity,
     *,
     window_deg: float = 10.0,
@@ -498,11 +502,9 @@ def unclaimed_speakers(
     centres : ndarray (U,)
         Azimuth of each speaker found, degrees (in the order found).
     speaking : ndarray (J, U) bool
-        Whether each speaks in each frame of ``heat_time_s``.
+        Whether each speaks in each frame of ``profile.time_s``.
     """
-    w = np.asarray(heat_weights, dtype=float)
-    t_heat = np.asarray(heat_time_s, dtype=float)
-    az_grid = np.asarray(azimuths_deg, dtype=float)
+    w, t_heat, az_grid = profile.checked()
     hop = float(np.median(np.diff(t_heat))) if t_heat.size > 1 else FRAME_HOP_S
     if t_heat.size == 0:
         return np.zeros(0), np.zeros((0, 0), dtype=bool)

@@ -72,7 +72,6 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal, overload
 
 import numpy as np
 import pyroomacoustics as pra
@@ -628,7 +627,6 @@ def _rng(rng: np.random.Generator | int) -> np.random.Generator:
     raise ValueError(f"rng must be a numpy Generator or an int seed, got {rng!r}")
 
 
-@overload
 def render(
     room: Room,
     array: MicArray,
@@ -639,12 +637,20 @@ def render(
     early_s: float = 0.05,
     n_samples: int | None = None,
     rng: np.random.Generator | int = 0,
-    return_images: Literal[False] = False,
-) -> np.ndarray: ...
+) -> np.ndarray:
+    """Microphone signals of moving sources in a reverberant room (see the module docstring):
+    the sum of :func:`render_images`, with the same parameters.
+
+    Returns
+    -------
+    mix : ndarray (n_mics, n_samples)
+        Sum of the source images (each high-passed at 10 Hz, see the module docstring).
+    """
+    return render_images(room, array, pose, sources, step_m, early_s=early_s,
+                         n_samples=n_samples, rng=rng).sum(axis=0)
 
 
-@overload
-def render(
+def render_images(
     room: Room,
     array: MicArray,
     pose: ArrayPose,
@@ -654,38 +660,9 @@ def render(
     early_s: float = 0.05,
     n_samples: int | None = None,
     rng: np.random.Generator | int = 0,
-    return_images: Literal[True],
-) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-@overload
-def render(
-    room: Room,
-    array: MicArray,
-    pose: ArrayPose,
-    sources: MovingSource | Sequence[MovingSource],
-    step_m: float = 0.05,
-    *,
-    early_s: float = 0.05,
-    n_samples: int | None = None,
-    rng: np.random.Generator | int = 0,
-    return_images: bool = False,
-) -> np.ndarray | tuple[np.ndarray, np.ndarray]: ...
-
-
-def render(
-    room: Room,
-    array: MicArray,
-    pose: ArrayPose,
-    sources: MovingSource | Sequence[MovingSource],
-    step_m: float = 0.05,
-    *,
-    early_s: float = 0.05,
-    n_samples: int | None = None,
-    rng: np.random.Generator | int = 0,
-    return_images: bool = False,
-) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
-    """Microphone signals of moving sources in a reverberant room (see the module docstring).
+) -> np.ndarray:
+    """Each moving source's image at the microphones in a reverberant room (see the module
+    docstring); :func:`render` gives their sum.
 
     Parameters
     ----------
@@ -706,15 +683,11 @@ def render(
         Output length; default the longest source signal (reverberation beyond is cut).
     rng : numpy Generator or int
         Randomness of the diffuse tails (drawn per source, in order).
-    return_images : bool
-        Also return each source's image at the microphones.
 
     Returns
     -------
-    mix : ndarray (n_mics, n_samples)
-        Sum of the source images (each high-passed at 10 Hz, see the module docstring).
     images : ndarray (n_sources, n_mics, n_samples)
-        Only with ``return_images=True``: ``mix == images.sum(axis=0)``.
+        Each source's image, high-passed at 10 Hz (see the module docstring).
     """
     if isinstance(sources, MovingSource):
         sources = [sources]
@@ -738,8 +711,7 @@ def render(
         t_mix = _mixing_time(array, pose, src, early_s)
         acou = _Acoustics(room, array, pose, t_mix)
         images[k] = _render_source(acou, src, step_m, gen, int(n_samples))
-    mix = images.sum(axis=0)
-    return (mix, images) if return_images else mix
+    return images
 
 
 def room_impulse_response(

@@ -323,16 +323,9 @@ def _render_speech(
     ]
     images = np.zeros((len(dry), array.n_mics, n_samples))  # each person at every microphone
     if sources:
-        speech, talker_images = acoustics.render(
-            room,
-            array,
-            pose,
-            sources,
-            step_m=step_m,
-            n_samples=n_samples,
-            rng=rng,
-            return_images=True,
-        )
+        talker_images = acoustics.render_images(
+            room, array, pose, sources, step_m=step_m, n_samples=n_samples, rng=rng)
+        speech = talker_images.sum(axis=0)
         images[talkers] = talker_images[:, :, :n_samples]
     else:
         speech = np.zeros((array.n_mics, n_samples))
