@@ -118,6 +118,7 @@ def test_single_model_iterations_equal_the_general_loop(exclusive):
     rng = np.random.default_rng(4)
     model = BoxObservationModel(-20.0, BhattacharyyaAppearance(), appearance_update=0.1)
     engine = VEMEngine(D, [model], n_iter=4, exclusive=exclusive)
+    engine._compiled = False  # the NumPy form (the compiled one: test_cv_box_kernel.py)
     mu = np.column_stack([rng.uniform(50, 300, (3, 2)), rng.uniform(30, 60, (3, 2)),
                           rng.normal(size=(3, 2))])
     gamma = np.stack([np.diag(rng.uniform(1, 9, 6)) for _ in range(3)])

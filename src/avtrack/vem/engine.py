@@ -13,14 +13,17 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from avtrack.vem.model import DiagonalObservationModel, ObservationModel
+from avtrack.vem import _cv_box_kernel
+from avtrack.vem.model import CompiledTerms, DiagonalObservationModel, ObservationModel
 from avtrack.vem.updates import (
+    _MAX_ITER,
     CVNoise,
     CVStates,
     cv_covariance,
@@ -176,6 +179,8 @@ class VEMEngine:
         self.dynamics_floor = float(dynamics_floor)
         self.marginal_init = bool(marginal_init)
         self.exclusive = bool(exclusive)
+        #: True: the compiled iterations where a model offers them (Numba is available)
+        self._compiled = _cv_box_kernel.available()
         d = transition.shape[0]
         self._cv = _constant_velocity(transition, self.models, self.dynamics_mstep)
         # the models of the constant-velocity path (all of them when it applies)
@@ -411,6 +416,15 @@ class VEMEngine:
             c_v = np.zeros((n, k))
             c_v[:, :n_vel] = control[:, k:]
             lam = lam._replace(mu_p=control[:, :k], mu_v=c_v)
+        if control is None and lam.cov is None and len(self.models) == 1 and self._compiled:
+            kern = _cv_box_kernel.kernel()
+            terms = None if kern is None else self.models[0].compiled_terms(
+                observations[0], n)
+            if terms is not None and terms.z.shape[1] == k:
+                lam_arr = np.array((lam.var_p, lam.var_v))
+                post, resps, mass = self._iterate_compiled(kern, terms, states, lam_arr, dt)
+                return self._finish(observations, _Posterior(None, None, post, n_vel), resps,
+                                    mass)
         pred = predict_cv(states, lam, dt)  # D μ + c, D Γ Dᵀ + Λ: eq. 2.21
         iterate = self._iterate_cv_one if len(self.models) == 1 else self._iterate_cv
         post, resps, mass = iterate(observations, pred)
@@ -452,6 +466,10 @@ class VEMEngine:
         """:meth:`_iterate_cv` for a single observation model, without the per-model lists
         and loops (whose overhead is some 5% of an OVBT frame); the same updates."""
         (model,), (obs,) = self._diagonal_models, observations
+        kern = _cv_box_kernel.kernel() if self._compiled else None
+        terms = None if kern is None else model.compiled_terms(obs, pred.mu_p.shape[0])
+        if terms is not None and terms.z.shape[1] == pred.mu_p.shape[1]:
+            return self._iterate_compiled(kern, terms, pred, None, 1.0)
         post = pred  # E-Z initialisation, thesis §4.6.1
         log_prior = _uniform_log_prior(pred.mu_p.shape[0] + 1)  # η = 1/(N+1)
         last, exclusive, marginal = self.n_iter - 1, self.exclusive, self.marginal_init
@@ -468,6 +486,31 @@ class VEMEngine:
                 log_prior = m_step_priors(mass)
         return post, [resp], [mass]
 
+    def _iterate_compiled(
+        self, kern: Callable[..., int], terms: CompiledTerms, states: CVStates,
+        lam: np.ndarray | None, dt: float,
+    ) -> tuple[CVStates, list[np.ndarray], list[np.ndarray]]:
+        """:meth:`_iterate_cv_one` in one compiled call (:mod:`avtrack.vem._cv_box_kernel`),
+        the same updates, the same results to rounding: from the predicted ``states``, or with
+        ``lam (2, N, k)`` (diagonal Λ_pp, Λ_vv), from the previous posterior ``states``
+        predicted first (``predict_cv`` without a control term)."""
+        n = states.mu_p.shape[0]
+        m = terms.z.shape[0]
+        pred = np.array(states)  # (5, N, k), a copy (predicted in place by the kernel)
+        post = np.empty_like(pred)
+        resp = np.empty((m, n + 1))
+        mass = np.empty(n + 1)
+        app = terms.appearance
+        unconverged = kern(terms.z, terms.var, terms.inv_var, terms.log_normaliser,
+                           terms.log_clutter, _NO_APPEARANCE if app is None else app,
+                           app is not None, pred, _NO_LAMBDA if lam is None else lam, dt,
+                           lam is not None, post, self.n_iter, self.marginal_init,
+                           self.update_priors, self.exclusive, resp, mass)
+        if unconverged:  # as exclusive_projection warns (not seen in testing)
+            warnings.warn(f"exclusive_projection: KKT conditions not met after {_MAX_ITER} "
+                          "iterations", RuntimeWarning, stacklevel=4)
+        return CVStates(*post), [resp], [mass]
+
     def _finish(
         self, observations: Sequence[Any], post: _Posterior, resps: list[np.ndarray],
         mass: list[np.ndarray],
@@ -479,6 +522,12 @@ class VEMEngine:
         if post.states is None:  # (writable arrays: the inference keeps its own)
             post = _Posterior(post.mu.copy(), post.gamma.copy())
         return FrameInference(tuple(resps), tuple(mass), post)
+
+
+#: the compiled iterations' appearance argument when there is none (not read)
+_NO_APPEARANCE = np.zeros((1, 1))
+#: and its dynamics argument when it does not predict (not read)
+_NO_LAMBDA = np.zeros((2, 1, 1))
 
 
 @functools.lru_cache(maxsize=64)

@@ -16,7 +16,7 @@ when targets are added or removed.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -35,6 +35,19 @@ def cached_log_clutter(
         out.flags.writeable = False
         cache[m] = out
     return out
+
+
+class CompiledTerms(NamedTuple):
+    r"""One frame of a diagonal Gaussian observation model with a uniform clutter class, as the
+    compiled VEM iterations read it (C-contiguous float64 arrays): :math:`\log\tau_{tmn}` is
+    eq. 2.25 / 2.8 of ``z`` against the targets' observed means plus ``appearance``."""
+
+    z: np.ndarray  #: (M, k) observations
+    var: np.ndarray  #: (M, k) diagonals of their covariances
+    inv_var: np.ndarray  #: (M, k) and of the inverses
+    log_normaliser: np.ndarray  #: (M,) log normalisers of their Gaussians
+    log_clutter: float  #: log density of the clutter class
+    appearance: np.ndarray | None  #: (M, N) log ratios added to every target's, or None
 
 
 class ObservationModel(ABC):
@@ -156,6 +169,12 @@ class DiagonalObservationModel(ObservationModel):
     def information_diagonal(self, obs: Any, resp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`information` restricted to the observed components, whose precision is
         diagonal: ``info_diag (N, k)`` and ``info_vector (N, k)``."""
+
+    def compiled_terms(self, obs: Any, n_targets: int) -> CompiledTerms | None:
+        """The frame's terms for the compiled VEM iterations
+        (:mod:`avtrack.vem._cv_box_kernel`), or None (the default) when this model's
+        likelihood is not the diagonal Gaussian with uniform clutter they compute."""
+        return None
 
     def responsibilities_diagonal(
         self, obs: Any, mu: np.ndarray, var: np.ndarray, log_prior: np.ndarray,

@@ -52,8 +52,14 @@ def visibility_filter(p_visible: np.ndarray, nu: np.ndarray, stay: float, lam: f
         raise ValueError(f"stay must be in (0, 1), got {stay}")
     if not lam > 0:
         raise ValueError(f"lam must be > 0, got {lam}")
+    return visibility_step(p_visible, nu, stay, lam)
+
+
+def visibility_step(p_visible: np.ndarray, nu: np.ndarray, stay: float, lam: float):
+    """:func:`visibility_filter` without checking ``stay`` and ``lam`` (for callers whose
+    configuration has checked them: a tracker's every frame)."""
     # Σ_v p(v_t|v_{t-1}) p(v_{t-1}) = π_v p + (1 - π_v)(1 - p)
     prior1 = (1 - stay) + (2 * stay - 1) * p_visible
-    l0, l1 = visibility_likelihood(nu, lam)
-    num1 = l1 * prior1
-    return num1 / (num1 + l0 * (1 - prior1))
+    e = np.exp(-lam * np.maximum(nu, 0.0))  # eq. 3.32: visibility_likelihood, inline
+    num1 = np.maximum(1.0 - e, LIKELIHOOD_FLOOR) * prior1
+    return num1 / (num1 + np.maximum(e, LIKELIHOOD_FLOOR) * (1 - prior1))

@@ -20,7 +20,7 @@ from itertools import pairwise
 
 import numpy as np
 
-from avtrack.vem.model import DiagonalObservationModel, cached_log_clutter
+from avtrack.vem.model import CompiledTerms, DiagonalObservationModel, cached_log_clutter
 from avtrack.vem.updates import e_z_normalise, exclusive_projection
 from avtrack.visual.appearance import AppearanceLikelihood, init_appearance_model
 
@@ -235,6 +235,17 @@ class BoxObservationModel(DiagonalObservationModel):
         log_tau = np.empty((len(obs), mu.shape[0]))
         self._log_tau_diagonal(obs, mu, var, marginal, log_tau)
         return log_tau, self._log_clutter(len(obs))
+
+    def compiled_terms(self, obs: BoxObservations, n_targets: int) -> CompiledTerms:
+        app = None
+        if (self.appearance is not None and obs.appearance is not None
+                and self.references is not None and len(self.references) == n_targets):
+            app = np.ascontiguousarray(
+                self.appearance.log_ratio(obs.appearance, self.references), dtype=float)
+        c = np.ascontiguousarray
+        return CompiledTerms(c(obs.z, dtype=float), c(obs.var, dtype=float),
+                             c(obs.inv_var, dtype=float), c(obs.log_normaliser, dtype=float),
+                             float(self.log_clutter_density), app)
 
     def responsibilities_diagonal(
         self, obs: BoxObservations, mu: np.ndarray, var: np.ndarray, log_prior: np.ndarray,

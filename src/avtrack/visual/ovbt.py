@@ -41,7 +41,7 @@ from avtrack.vem.dynamics import (
 from avtrack.vem.engine import VEMEngine
 from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.updates import ones
-from avtrack.vem.visibility import visibility_filter
+from avtrack.vem.visibility import visibility_step
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
 from avtrack.visual.model import (
     BOX_DIM,
@@ -384,8 +384,8 @@ class OVBTracker(ManagedTargets):
         else:
             history = np.concatenate([mass[:, None], history[:, :-1]], 1)
             nu = history.dot(ones(cfg.visibility_window))  # Σ over the window
-        return visibility_filter(p_visible, nu, cfg.visibility_stay,
-                                 cfg.visibility_lambda), history
+        return visibility_step(p_visible, nu, cfg.visibility_stay,
+                               cfg.visibility_lambda), history
 
     @property
     def _splits(self) -> bool:
