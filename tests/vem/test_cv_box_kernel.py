@@ -96,3 +96,18 @@ def test_compiled_projection_equals_the_numpy_one(seed, m, n, spread):
     np.testing.assert_allclose(q.sum(axis=1), 1.0, atol=1e-12)
     assert q[:, 1:].sum(axis=0).max() <= 1.0 + 1e-9
     np.testing.assert_allclose(q, expected, atol=1e-9)
+
+
+def test_compiled_frames_with_a_control_term_equal_the_numpy_path():
+    """With a control term (ego-motion, eq. 3.34) the prediction stays in NumPy and the
+    compiled iterations start from it."""
+    rng = np.random.default_rng(9)
+    fast, slow = _engines(rng, False, exclusive=True)
+    control = rng.normal(scale=3.0, size=(4, 6))
+    z = slow.mu[:, :4] + control[:, :4] + rng.normal(scale=2.0, size=(4, 4))
+    obs = BoxObservations(z, box_observation_variance(z))
+    a = fast.step([obs], box_dynamics_variance(fast.mu), control=control)
+    b = slow.step([obs], box_dynamics_variance(slow.mu), control=control)
+    np.testing.assert_allclose(a.mu, b.mu, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(a.gamma, b.gamma, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(a.responsibilities[0], b.responsibilities[0], atol=1e-12)

@@ -418,9 +418,9 @@ class VEMEngine:
             lam = lam._replace(mu_p=control[:, :k], mu_v=c_v)
         if control is None and lam.cov is None and len(self.models) == 1 and self._compiled:
             kern = _cv_box_kernel.kernel()
-            terms = None if kern is None else self.models[0].compiled_terms(
+            terms = None if kern is None else self._diagonal_models[0].compiled_terms(
                 observations[0], n)
-            if terms is not None and terms.z.shape[1] == k:
+            if kern is not None and terms is not None and terms.z.shape[1] == k:
                 lam_arr = np.array((lam.var_p, lam.var_v))
                 post, resps, mass = self._iterate_compiled(kern, terms, states, lam_arr, dt)
                 return self._finish(observations, _Posterior(None, None, post, n_vel), resps,
@@ -468,7 +468,7 @@ class VEMEngine:
         (model,), (obs,) = self._diagonal_models, observations
         kern = _cv_box_kernel.kernel() if self._compiled else None
         terms = None if kern is None else model.compiled_terms(obs, pred.mu_p.shape[0])
-        if terms is not None and terms.z.shape[1] == pred.mu_p.shape[1]:
+        if kern is not None and terms is not None and terms.z.shape[1] == pred.mu_p.shape[1]:
             return self._iterate_compiled(kern, terms, pred, None, 1.0)
         post = pred  # E-Z initialisation, thesis §4.6.1
         log_prior = _uniform_log_prior(pred.mu_p.shape[0] + 1)  # η = 1/(N+1)
