@@ -87,8 +87,10 @@ sequence is tracked, so it can hold what an online output gives only B frames la
                      "colour histograms of the detection boxes (hue-saturation-value, the inner "
                      "part of each box) become the appearance (thesis eq. 3.5, Bhattacharyya "
                      "likelihood) and re-identify targets that ended lately "
-                     f"({_settings(mot.VIDEO_DEFAULTS)} unless --config says otherwise); image "
-                     "size and length from the video")
+                     f"({_settings(mot.VIDEO_DEFAULTS)} unless --config says otherwise); the "
+                     "camera's motion between frames, estimated from the background, is "
+                     "compensated in the prediction (compensate_camera: false in --config for a "
+                     "camera known to stand still); image size and length from the video")
     p.add_argument("--detector", metavar="NAME",
                    help="without DET.txt: detect people in --video's frames with a built-in "
                    f"detector ({', '.join(DETECTORS)}; default {DEFAULT_PERSON_DETECTOR}, "

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import AbstractContextManager
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -22,6 +22,7 @@ from avtrack.errors import InputError
 from avtrack.io.datasets import find_seqinfo, read_seqinfo
 from avtrack.io.mot import MOTData, read_mot
 from avtrack.io.video import VideoInfo, iter_frames, probe_video
+from avtrack.visual.camera_motion import CameraMotion
 from avtrack.visual.detect import DEFAULT_PERSON_DETECTOR, detect_video, load_detector
 from avtrack.visual.histograms import detection_histograms
 from avtrack.visual.ovbt import OVBTConfig, image_size_from_detections, track_mot
@@ -228,16 +229,39 @@ def track_mot_sequence(
                                                       image_size, fps, fps_source)
     t0 = time.perf_counter()
     n = max(dets.n_frames, n_frames or 0)
+    motion = None
     if info is not None:
-        with stage(f"colour histograms of {len(dets)} boxes in {n} frames"):
-            app = detection_histograms(iter_frames(info.path, info), dets, n,
-                                       descriptor="person")
+        what = f"colour histograms of {len(dets)} boxes in {n} frames"
+        with stage(what + (" and the camera's motion" if config.compensate_camera else "")):
+            app, motion = frames_appearance(iter_frames(info.path, info), dets, n,
+                                            config.compensate_camera)
     try:
         with stage(f"tracking {n} frames"):
-            tracks = track_mot(dets, app, config, size, n_frames, fps)
+            tracks = track_mot(dets, app, config, size, n_frames, fps, motion)
     except ValueError as exc:
         raise InputError(str(exc), detections or video) from None
     return MOTRun(tracks, dets, n, size, fps, fps_source, time.perf_counter() - t0, info)
+
+
+def frames_appearance(frames: Iterable[np.ndarray], dets: MOTData, n_frames: int,
+                      camera_motion: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """What the tracker takes from a sequence's frames, in one pass over them: the person
+    colour histogram of every detection row ``(len(dets), F)``
+    (:func:`~avtrack.visual.histograms.detection_histograms`) and, with ``camera_motion``,
+    the camera's motion into each frame ``(n_frames, 2, 3)``
+    (:class:`~avtrack.visual.camera_motion.CameraMotion`, corners outside the frame's
+    detection boxes; None without)."""
+    motions: list[np.ndarray] = []
+
+    def passing(frames: Iterable[np.ndarray]) -> Iterator[np.ndarray]:
+        estimator = CameraMotion()
+        for sl, frame in zip(dets.frame_slices(n_frames), frames, strict=False):
+            motions.append(estimator.push(frame, dets.boxes[sl]))
+            yield frame
+
+    app = detection_histograms(passing(frames) if camera_motion else frames, dets, n_frames,
+                               descriptor="person")
+    return app, (np.stack(motions) if camera_motion and motions else None)
 
 
 def _sequence_shape(

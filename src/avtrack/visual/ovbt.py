@@ -43,6 +43,7 @@ from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.updates import ones
 from avtrack.vem.visibility import visibility_step
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
+from avtrack.visual.camera_motion import IDENTITY, apply_motion
 from avtrack.visual.model import (
     BOX_DIM,
     BoxObservationModel,
@@ -113,6 +114,10 @@ class OVBTConfig:
     #: birth was inferred from: the model's estimate that the person was there, which an
     #: online output can only give B frames late
     birth_sequence: bool = True
+    #: with the video's frames: the camera's motion between frames, estimated from the
+    #: background (:mod:`avtrack.visual.camera_motion`), joins the prediction as a control
+    #: term (eq. 3.34), as the robot head's ego-motion does (False: a still camera assumed)
+    compensate_camera: bool = True
 
     def __post_init__(self) -> None:
         positive = ("obs_std_pos", "obs_std_size", "dyn_std_pos", "dyn_std_size",
@@ -320,9 +325,12 @@ class OVBTracker(ManagedTargets):
         ids, centre_boxes, p_visible = self._step(self._observations(boxes, scores, appearance))
         return FrameTracks(ids, xywh_to_ltwh(centre_boxes), p_visible)
 
-    def _step(self, obs: BoxObservations) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _step(self, obs: BoxObservations, motion: np.ndarray | None = None,
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`step` on prepared observations; returns the shown targets' ids ``(K,)``,
-        boxes ``(K, 4)`` as (x, y, w, h) and visibility posteriors ``(K,)``."""
+        boxes ``(K, 4)`` as (x, y, w, h) and visibility posteriors ``(K,)``. ``motion``: the
+        camera's motion ``(2, 3)`` from the previous frame's pixels to this frame's
+        (:mod:`avtrack.visual.camera_motion`), or None for a still camera."""
         cfg = self.config
         self.frame += 1
         eng = self.engine
@@ -332,7 +340,13 @@ class OVBTracker(ManagedTargets):
         strong: np.ndarray | None = None  # (M,): detections that may start or show a target
         # --- VEM on the existing targets ---------------------------------------------------
         if eng.n_targets:
-            inf = eng.step([obs], self._dyn_var(eng.mu))  # Λ is diagonal
+            control = None
+            if motion is not None and not np.array_equal(motion, IDENTITY):
+                # the camera's motion as the control term c_tn of eq. 3.34: the prediction
+                # D μ seen through it, minus D μ
+                pred = eng.mu @ eng.transition.T
+                control = apply_motion(motion, pred) - pred
+            inf = eng.step([obs], self._dyn_var(eng.mu), control)  # Λ is diagonal
             # cap_box_covariance on the engine's states, when some std exceeds its cap
             scale = cap_box_scale(eng.mu, eng.variances, cfg.max_state_std)
             if scale.ravel()[scale.argmin()] < 1.0:
@@ -512,7 +526,7 @@ _ROWS_BATCH = 512
 def track_mot(
     dets: MOTData, appearance: np.ndarray | None = None, config: OVBTConfig | None = None,
     image_size: tuple[int, int] | None = None, n_frames: int | None = None,
-    fps: float | None = None,
+    fps: float | None = None, motion: np.ndarray | None = None,
 ) -> MOTData:
     """Track a whole MOTChallenge detection sequence (batch helper around :class:`OVBTracker`).
 
@@ -529,6 +543,9 @@ def track_mot(
         Sequence length (defaults to the last detected frame).
     fps : float, optional
         Frame rate (None: :data:`REFERENCE_FPS`; see :class:`OVBTracker`).
+    motion : ndarray (n_frames, 2, 3), optional
+        The camera's motion into each frame from the previous one
+        (:mod:`avtrack.visual.camera_motion`); used when ``config.compensate_camera``.
 
     Returns
     -------
@@ -546,8 +563,14 @@ def track_mot(
     rows: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # ids, boxes, confidences
     done: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
     counts: list[int] = []
-    for obs in tracker._frame_observations(dets, appearance, n_frames):
-        out = tracker._step(obs)
+    if motion is not None:
+        motion = np.asarray(motion, dtype=float)
+        if motion.ndim != 3 or motion.shape[1:] != (2, 3):
+            raise ValueError(f"motion must be (n_frames, 2, 3), got shape {motion.shape}")
+        if not tracker.config.compensate_camera:
+            motion = None
+    for k, obs in enumerate(tracker._frame_observations(dets, appearance, n_frames)):
+        out = tracker._step(obs, None if motion is None or k >= len(motion) else motion[k])
         rows.append(out)
         counts.append(len(out[0]))
         if len(rows) == _ROWS_BATCH:  # one array per column, not thousands of small ones
