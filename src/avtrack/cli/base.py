@@ -92,6 +92,21 @@ def add_array_option(
     )
 
 
+def add_localizer_option(parser: argparse.ArgumentParser, note: str = "") -> None:
+    """``--method NAME``: the localizer of the heat maps (a registered name, default
+    ``dprtf-eg-fast``); ``note`` adds to the help."""
+    from avtrack.localize import LOCALIZERS
+
+    parser.add_argument(
+        "--method",
+        choices=sorted(LOCALIZERS),
+        default="dprtf-eg-fast",
+        help=f"localizer{note}; default: dprtf-eg-fast (DPRTF-EG with fast position weights; "
+        "dprtf-eg-static: the same for talkers who stay in place; dprtf-eg: the thesis's "
+        "estimator)",
+    )
+
+
 def add_algorithm_config_option(
     parser: argparse.ArgumentParser, fields: str, note: str = ""
 ) -> None:

@@ -22,6 +22,8 @@ from avtrack.cli.base import (
     add_command,
     add_common,
     add_grid_options,
+    add_localizer_option,
+    add_output_option,
     grid_from_options,
 )
 from avtrack.config import load_config
@@ -79,21 +81,8 @@ rate than 16 kHz is resampled.""",
     )
     p.add_argument("audio", type=Path, metavar="AUDIO.wav", help="multichannel recording")
     add_array_option(p)
-    p.add_argument(
-        "--method",
-        choices=sorted(LOCALIZERS),
-        default="dprtf-eg-fast",
-        help="default: dprtf-eg-fast (DPRTF-EG with fast position weights; dprtf-eg-static: "
-        "the same for talkers who stay in place; dprtf-eg: the thesis's estimator)",
-    )
-    p.add_argument(
-        "-o",
-        "--output",
-        type=Path,
-        required=True,
-        metavar="DOA.csv",
-        help="peaks, one row per peak (written atomically)",
-    )
+    add_localizer_option(p)
+    add_output_option(p, "DOA.csv", "peaks, one row per peak (written atomically)")
     p.add_argument(
         "--threshold",
         type=float,

@@ -10,7 +10,13 @@ from pathlib import Path
 import numpy as np
 
 from avtrack.audio.recording import AudioChecks
-from avtrack.cli.base import add_array_option, add_clipping_option, add_command, add_common
+from avtrack.cli.base import (
+    add_array_option,
+    add_clipping_option,
+    add_command,
+    add_common,
+    add_localizer_option,
+)
 from avtrack.config import build_config, read_config_mapping
 from avtrack.errors import InputError
 from avtrack.io.base import atomic_write
@@ -45,7 +51,6 @@ video detections).
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     from avtrack.doa.base import TRACKERS
-    from avtrack.localize import LOCALIZERS
 
     p = add_command(
         subparsers,
@@ -60,13 +65,7 @@ every 32 ms, one output row per track per frame with bounded latency and memory.
     )
     p.add_argument("audio", metavar="AUDIO.wav|-", help="WAV file, or - for standard input")
     add_array_option(p)
-    p.add_argument(
-        "--method",
-        choices=sorted(LOCALIZERS),
-        default="dprtf-eg-fast",
-        help="default: dprtf-eg-fast (dprtf-eg-static: for talkers who stay in place; "
-        "dprtf-eg: the thesis's estimator)",
-    )
+    add_localizer_option(p)
     p.add_argument(
         "--tracker",
         choices=sorted(TRACKERS),

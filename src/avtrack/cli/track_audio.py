@@ -29,6 +29,7 @@ from avtrack.cli.base import (
     add_command,
     add_common,
     add_grid_options,
+    add_localizer_option,
     add_output_option,
     grid_from_options,
 )
@@ -101,13 +102,7 @@ stops. Azimuths are in the array frame, counter-clockwise from x, in (-180, 180]
         help="track the DOAs of this CSV (rows with active=1, weight = confidence) "
         "instead of localizing AUDIO.wav",
     )
-    p.add_argument(
-        "--method",
-        default="dprtf-eg-fast",
-        metavar="NAME",
-        help="localizer for AUDIO.wav (avtrack localize --method; default dprtf-eg-fast; "
-        "dprtf-eg-static for talkers who stay in place; dprtf-eg is the thesis's estimator)",
-    )
+    add_localizer_option(p, " of AUDIO.wav (as avtrack localize)")
     add_grid_options(p, "0 for azimuth only", "the trackers follow the map summed over "
                      "elevation")
     p.add_argument(

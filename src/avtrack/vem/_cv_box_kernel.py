@@ -25,7 +25,14 @@ from typing import Any
 import numpy as np
 
 from avtrack._jit import available, build_once
-from avtrack.vem.updates import _MAX_ITER, CLUTTER_FLOOR, FEASIBILITY_TOL, KKT_TOL, PRIOR_FLOOR
+from avtrack.vem.updates import (
+    _MAX_ITER,
+    CLUTTER_FLOOR,
+    FEASIBILITY_TOL,
+    KKT_TOL,
+    PRIOR_FLOOR,
+    _solve_column,
+)
 
 __all__ = ["available", "iterate_frame", "kernel"]
 
@@ -365,33 +372,7 @@ def _newton_step(
     return False
 
 
-def _solve_column(a: np.ndarray, b: np.ndarray, nu_j: float) -> float:
-    """:func:`avtrack.vem.updates._solve_column`."""
-    shift = 0.0
-    scale = 1.0
-    for _ in range(_MAX_ITER):
-        s = 0.0
-        curv = 0.0
-        for i in range(a.size):
-            bt = b[i] * scale
-            den = a[i] + bt
-            p = a[i] / den
-            s += p
-            curv += p * bt / den
-        if curv == 0.0:
-            return 0.0
-        step = (s - 1.0) / curv
-        new = shift + math.log1p(step) if step > 0.0 else shift - math.log1p(-step)
-        if new <= -nu_j:
-            return 0.0
-        shift = new
-        if abs(s - 1.0) <= 1e-14 or abs(step) <= 1e-13:
-            break
-        scale = math.exp(shift)
-    return nu_j + shift
-
-
-# the NumPy-free forms call each other by these names; compiled, _compile rebinds them
+# the functions call each other by these names; compiled, _compile rebinds them
 _solve_column_c = _solve_column
 _newton_step_c = _newton_step
 _kl_projection_c = _kl_projection

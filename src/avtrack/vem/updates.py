@@ -76,6 +76,7 @@ from __future__ import annotations
 import functools
 import math
 import warnings
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -341,20 +342,22 @@ def _newton_step(
     return False
 
 
-def _solve_column(a: list[float], b: list[float], nu_j: float) -> float:
+def _solve_column(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray,
+                  nu_j: float) -> float:
     r"""The multiplier :math:`\nu_j \ge 0` minimising :math:`F` with the other multipliers
     held: :math:`a` ``(M,)`` is column ``j`` of the tilted rows :math:`w` at ``nu_j``, ``b``
     ``(M,)`` the rest of each row (positive). Newton's method on :math:`t` (column sum above 1)
     or :math:`u = 1/t` (below 1) for :math:`s(t) = \sum_m a_m/(a_m + b_m t) = 1` (see
     :func:`exclusive_projection`), from :math:`t = 1`, clipped at :math:`\nu_j = 0`. On floats:
-    ``M`` is a handful of detections."""
-    rows = list(zip(a, b, strict=True))
+    ``M`` is a handful of detections. (Written on indices, so that the compiled iterations of
+    :mod:`avtrack.vem._cv_box_kernel` compile this very function for arrays.)"""
     shift = 0.0  # log t
     scale = 1.0  # t
     for _ in range(_MAX_ITER):
         s = curv = 0.0
-        for a_m, b_m in rows:
-            bt = b_m * scale
+        for m in range(len(a)):
+            a_m = a[m]
+            bt = b[m] * scale
             den = a_m + bt
             p = a_m / den  # q_mj
             s += p
