@@ -72,6 +72,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TypedDict, Unpack
 
 import numpy as np
 import pyroomacoustics as pra
@@ -627,16 +628,21 @@ def _rng(rng: np.random.Generator | int) -> np.random.Generator:
     raise ValueError(f"rng must be a numpy Generator or an int seed, got {rng!r}")
 
 
+class RenderOptions(TypedDict, total=False):
+    """The keyword options of :func:`render_images` (and :func:`render`)."""
+
+    early_s: float
+    n_samples: int | None
+    rng: np.random.Generator | int
+
+
 def render(
     room: Room,
     array: MicArray,
     pose: ArrayPose,
     sources: MovingSource | Sequence[MovingSource],
     step_m: float = 0.05,
-    *,
-    early_s: float = 0.05,
-    n_samples: int | None = None,
-    rng: np.random.Generator | int = 0,
+    **options: Unpack[RenderOptions],
 ) -> np.ndarray:
     """Microphone signals of moving sources in a reverberant room (see the module docstring):
     the sum of :func:`render_images`, with the same parameters.
@@ -646,8 +652,7 @@ def render(
     mix : ndarray (n_mics, n_samples)
         Sum of the source images (each high-passed at 10 Hz, see the module docstring).
     """
-    return render_images(room, array, pose, sources, step_m, early_s=early_s,
-                         n_samples=n_samples, rng=rng).sum(axis=0)
+    return render_images(room, array, pose, sources, step_m, **options).sum(axis=0)
 
 
 def render_images(
