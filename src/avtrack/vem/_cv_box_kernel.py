@@ -66,6 +66,8 @@ def _compile(njit: Callable[..., Any], cache: bool) -> Callable[..., int]:
     # the functions call each other through the ``*_c`` names: bind the compiled ones first
     for name in ("_solve_column", "_newton_step", "_kl_projection"):
         g[name + "_c"] = njit(SIGNATURES[name], cache=cache, nogil=True)(g[name])
+    for name in ("_predict", "_e_z", "_exclusive", "_e_s", "_m_step"):  # typed by their caller
+        g[name + "_c"] = njit(cache=cache, nogil=True)(g[name])
     return njit(SIGNATURES["iterate_frame"], cache=cache, nogil=True)(iterate_frame)
 
 
@@ -110,115 +112,148 @@ def iterate_frame(
     int
         0, or the number of exclusive projections that did not meet their KKT conditions.
     """
-    m, k = z.shape
-    n = pred.shape[1]
-    n1 = n + 1
-    unconverged = 0
-    if predict:  # predict_cv, thesis eq. 2.21 (the same operations in the same order)
-        for j in range(n):
-            for c in range(k):
-                mu_p, mu_v = pred[0, j, c], pred[1, j, c]
-                var_p, var_v, cov = pred[2, j, c], pred[3, j, c], pred[4, j, c]
-                if dt == 1.0:
-                    pred[0, j, c] = mu_p + mu_v
-                    pred[2, j, c] = var_p + 2.0 * cov + var_v + lam[0, j, c]
-                    pred[4, j, c] = cov + var_v
-                else:
-                    pred[0, j, c] = mu_p + dt * mu_v
-                    pred[2, j, c] = var_p + (2 * dt) * cov + (dt * dt) * var_v + lam[0, j, c]
-                    pred[4, j, c] = cov + dt * var_v
-                pred[3, j, c] = var_v + lam[1, j, c]
+    n1 = pred.shape[1] + 1
+    if predict:
+        _predict_c(pred, lam, dt)
     log_prior = np.full(n1, -math.log(n1))  # η = 1/(N+1)
     post[:] = pred  # E-Z initialisation, thesis §4.6.1
-    terms = np.empty((n, 2 * k))
+    unconverged = 0
     last = n_iter - 1
     for it in range(n_iter):
-        marginal = marginal_init and it == 0
-        # E-Z step, eq. 2.25 (eq. 2.8 on the prediction): BoxObservationModel._log_tau_diagonal
-        for i in range(m):
-            resp[i, 0] = log_clutter
-            for j in range(n):
-                acc = 0.0
-                if marginal:  # N(o; Pμ, PΓPᵀ + Φ), diagonal
-                    for c in range(k):
-                        r = z[i, c] - post[0, j, c]
-                        s = var[i, c] + post[2, j, c]
-                        acc += (r * r / s + math.log(s)) * -0.5
-                    val = acc - 0.5 * k * _LOG_2PI
-                else:  # N(o; Pμ, Φ) exp(-½ tr(Pᵀ Φ⁻¹ P Γ))
-                    for c in range(k):
-                        r = z[i, c] - post[0, j, c]
-                        acc += (r * r + post[2, j, c]) * inv_var[i, c] * -0.5
-                    val = acc + log_norm[i]
-                if has_app:
-                    val += app[i, j]
-                resp[i, j + 1] = val
-            # e_z_normalise: α_tmn = τη / Σ_i τ_tmi η_mi, eq. 2.25
-            top = -np.inf
-            for j in range(n1):
-                resp[i, j] += log_prior[j]
-                top = max(top, resp[i, j])
-            tot = 0.0
-            for j in range(n1):
-                resp[i, j] = math.exp(resp[i, j] - top)
-                tot += resp[i, j]
-            for j in range(n1):
-                resp[i, j] /= tot
-        if exclusive and n1 >= 2:  # exclusive_projection
-            worst = 0.0
-            for j in range(1, n1):
-                s = 0.0
-                for i in range(m):
-                    s += resp[i, j]
-                worst = max(worst, s)
-            if worst > 1.0 + FEASIBILITY_TOL:
-                alpha = resp.copy()
-                for i in range(m):
-                    alpha[i, 0] = max(alpha[i, 0], CLUTTER_FLOOR)
-                if not _kl_projection_c(alpha, resp):
-                    unconverged += 1
-        # information_diagonal: Σ_m α_mn Φ_m⁻¹, Σ_m α_mn Φ_m⁻¹ o_m (eq. 4.26)
-        terms[:] = 0.0
-        for i in range(m):
-            for j in range(n):
-                a = resp[i, j + 1]
-                for c in range(k):
-                    terms[j, c] += a * inv_var[i, c]
-                    terms[j, k + c] += a * (z[i, c] * inv_var[i, c])
-        # E-S step, eqs. 2.23-2.24 (e_s_step_cv; before the last iteration only μ_p, Γ_pp)
-        for j in range(n):
-            for c in range(k):
-                jd = terms[j, c]
-                h = terms[j, k + c]
-                a = pred[2, j, c]
-                f = 1.0 / (1.0 + jd * a)
-                post[0, j, c] = f * (pred[0, j, c] + a * h)
-                post[2, j, c] = f * a
-                if it == last:
-                    cv = f * pred[4, j, c]
-                    post[1, j, c] = pred[1, j, c] + cv * (h - jd * pred[0, j, c])
-                    post[3, j, c] = pred[3, j, c] - jd * pred[4, j, c] * cv
-                    post[4, j, c] = cv
-        # assigned mass, and the M step of the priors (eq. 3.29: m_step_priors)
-        for j in range(n1):
-            s = 0.0
-            for i in range(m):
-                s += resp[i, j]
-            mass[j] = s
-        if update_priors and it < last:
-            total = 0.0
-            for j in range(n1):
-                total += mass[j]
-            if total <= 0:
-                log_prior[:] = -math.log(n1)
-            else:
-                asum = 0.0
-                for j in range(n1):
-                    log_prior[j] = max(mass[j] / total, PRIOR_FLOOR)
-                    asum += log_prior[j]
-                for j in range(n1):
-                    log_prior[j] = math.log(log_prior[j] / asum)
+        _e_z_c(z, var, inv_var, log_norm, log_clutter, app, has_app, post,
+               marginal_init and it == 0, log_prior, resp)
+        if exclusive and n1 >= 2 and not _exclusive_c(resp):
+            unconverged += 1
+        _e_s_c(z, inv_var, resp, pred, post, it == last)
+        _m_step_c(resp, mass, log_prior, update_priors and it < last)
     return unconverged
+
+
+def _predict(pred: np.ndarray, lam: np.ndarray, dt: float) -> None:
+    """:func:`~avtrack.vem.updates.predict_cv` of ``pred (5, N, k)`` in place, with the
+    diagonal ``lam (2, N, k)`` (thesis eq. 2.21; the same operations in the same order)."""
+    for j in range(pred.shape[1]):
+        for c in range(pred.shape[2]):
+            mu_p, mu_v = pred[0, j, c], pred[1, j, c]
+            var_p, var_v, cov = pred[2, j, c], pred[3, j, c], pred[4, j, c]
+            if dt == 1.0:
+                pred[0, j, c] = mu_p + mu_v
+                pred[2, j, c] = var_p + 2.0 * cov + var_v + lam[0, j, c]
+                pred[4, j, c] = cov + var_v
+            else:
+                pred[0, j, c] = mu_p + dt * mu_v
+                pred[2, j, c] = var_p + (2 * dt) * cov + (dt * dt) * var_v + lam[0, j, c]
+                pred[4, j, c] = cov + dt * var_v
+            pred[3, j, c] = var_v + lam[1, j, c]
+
+
+def _e_z(
+    z: np.ndarray, var: np.ndarray, inv_var: np.ndarray, log_norm: np.ndarray,
+    log_clutter: float, app: np.ndarray, has_app: bool, post: np.ndarray, marginal: bool,
+    log_prior: np.ndarray, resp: np.ndarray,
+) -> None:
+    """The E-Z step, eq. 2.25 (eq. 2.8 with ``marginal``), into ``resp (M, N + 1)``:
+    ``BoxObservationModel._log_tau_diagonal`` and ``e_z_normalise``."""
+    m, k = z.shape
+    n1 = resp.shape[1]
+    for i in range(m):
+        resp[i, 0] = log_clutter
+        for j in range(n1 - 1):
+            acc = 0.0
+            if marginal:  # N(o; Pμ, PΓPᵀ + Φ), diagonal
+                for c in range(k):
+                    r = z[i, c] - post[0, j, c]
+                    s = var[i, c] + post[2, j, c]
+                    acc += (r * r / s + math.log(s)) * -0.5
+                val = acc - 0.5 * k * _LOG_2PI
+            else:  # N(o; Pμ, Φ) exp(-½ tr(Pᵀ Φ⁻¹ P Γ))
+                for c in range(k):
+                    r = z[i, c] - post[0, j, c]
+                    acc += (r * r + post[2, j, c]) * inv_var[i, c] * -0.5
+                val = acc + log_norm[i]
+            if has_app:
+                val += app[i, j]
+            resp[i, j + 1] = val
+        top = -np.inf  # α_tmn = τη / Σ_i τ_tmi η_mi
+        for j in range(n1):
+            resp[i, j] += log_prior[j]
+            top = max(top, resp[i, j])
+        tot = 0.0
+        for j in range(n1):
+            resp[i, j] = math.exp(resp[i, j] - top)
+            tot += resp[i, j]
+        for j in range(n1):
+            resp[i, j] /= tot
+
+
+def _exclusive(resp: np.ndarray) -> bool:
+    """``exclusive_projection`` of ``resp (M, N + 1)`` in place; False when the projection
+    did not meet its KKT conditions."""
+    worst = 0.0
+    for j in range(1, resp.shape[1]):
+        s = 0.0
+        for i in range(resp.shape[0]):
+            s += resp[i, j]
+        worst = max(worst, s)
+    if worst <= 1.0 + FEASIBILITY_TOL:
+        return True
+    alpha = resp.copy()
+    for i in range(resp.shape[0]):
+        alpha[i, 0] = max(alpha[i, 0], CLUTTER_FLOOR)
+    return _kl_projection_c(alpha, resp)
+
+
+def _e_s(z: np.ndarray, inv_var: np.ndarray, resp: np.ndarray, pred: np.ndarray,
+         post: np.ndarray, full: bool) -> None:
+    """The E-S step, eqs. 2.23-2.24 (``information_diagonal``, ``e_s_step_cv``), into
+    ``post``; without ``full`` only μ_p and Γ_pp (all that an E-Z step reads)."""
+    m, k = z.shape
+    n = pred.shape[1]
+    terms = np.zeros((n, 2 * k))  # Σ_m α_mn Φ_m⁻¹, Σ_m α_mn Φ_m⁻¹ o_m (eq. 4.26)
+    for i in range(m):
+        for j in range(n):
+            a = resp[i, j + 1]
+            for c in range(k):
+                terms[j, c] += a * inv_var[i, c]
+                terms[j, k + c] += a * (z[i, c] * inv_var[i, c])
+    for j in range(n):
+        for c in range(k):
+            jd = terms[j, c]
+            h = terms[j, k + c]
+            a = pred[2, j, c]
+            f = 1.0 / (1.0 + jd * a)
+            post[0, j, c] = f * (pred[0, j, c] + a * h)
+            post[2, j, c] = f * a
+            if full:
+                cv = f * pred[4, j, c]
+                post[1, j, c] = pred[1, j, c] + cv * (h - jd * pred[0, j, c])
+                post[3, j, c] = pred[3, j, c] - jd * pred[4, j, c] * cv
+                post[4, j, c] = cv
+
+
+def _m_step(resp: np.ndarray, mass: np.ndarray, log_prior: np.ndarray, update: bool) -> None:
+    """The assigned mass ``(N + 1,)`` and, with ``update``, the priors' M step (eq. 3.29:
+    ``m_step_priors``) into ``log_prior``."""
+    n1 = resp.shape[1]
+    for j in range(n1):
+        s = 0.0
+        for i in range(resp.shape[0]):
+            s += resp[i, j]
+        mass[j] = s
+    if not update:
+        return
+    total = 0.0
+    for j in range(n1):
+        total += mass[j]
+    if total <= 0:
+        log_prior[:] = -math.log(n1)
+        return
+    asum = 0.0
+    for j in range(n1):
+        log_prior[j] = max(mass[j] / total, PRIOR_FLOOR)
+        asum += log_prior[j]
+    for j in range(n1):
+        log_prior[j] = math.log(log_prior[j] / asum)
 
 
 def _kl_projection(alpha: np.ndarray, q: np.ndarray) -> bool:
@@ -376,3 +411,8 @@ def _newton_step(
 _solve_column_c = _solve_column
 _newton_step_c = _newton_step
 _kl_projection_c = _kl_projection
+_predict_c = _predict
+_e_z_c = _e_z
+_exclusive_c = _exclusive
+_e_s_c = _e_s
+_m_step_c = _m_step
