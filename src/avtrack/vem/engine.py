@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from avtrack.vem import _cv_box_kernel
-from avtrack.vem.model import CompiledTerms, DiagonalObservationModel, ObservationModel
+from avtrack.vem.model import DiagonalObservationModel, ObservationModel
 from avtrack.vem.updates import (
     _MAX_ITER,
     CVNoise,
@@ -416,15 +416,11 @@ class VEMEngine:
             c_v = np.zeros((n, k))
             c_v[:, :n_vel] = control[:, k:]
             lam = lam._replace(mu_p=control[:, :k], mu_v=c_v)
-        if control is None and lam.cov is None and len(self.models) == 1 and self._compiled:
-            kern = _cv_box_kernel.kernel()
-            terms = None if kern is None else self._diagonal_models[0].compiled_terms(
-                observations[0], n)
-            if kern is not None and terms is not None and terms.z.shape[1] == k:
-                lam_arr = np.array((lam.var_p, lam.var_v))
-                post, resps, mass = self._iterate_compiled(kern, terms, states, lam_arr, dt)
-                return self._finish(observations, _Posterior(None, None, post, n_vel), resps,
-                                    mass)
+        if control is None and lam.cov is None and len(self.models) == 1:
+            done = self._iterate_compiled(observations, states, lam, dt)
+            if done is not None:
+                return self._finish(observations, _Posterior(None, None, done[0], n_vel),
+                                    done[1], done[2])
         pred = predict_cv(states, lam, dt)  # D μ + c, D Γ Dᵀ + Λ: eq. 2.21
         iterate = self._iterate_cv_one if len(self.models) == 1 else self._iterate_cv
         post, resps, mass = iterate(observations, pred)
@@ -466,10 +462,9 @@ class VEMEngine:
         """:meth:`_iterate_cv` for a single observation model, without the per-model lists
         and loops (whose overhead is some 5% of an OVBT frame); the same updates."""
         (model,), (obs,) = self._diagonal_models, observations
-        kern = _cv_box_kernel.kernel() if self._compiled else None
-        terms = None if kern is None else model.compiled_terms(obs, pred.mu_p.shape[0])
-        if kern is not None and terms is not None and terms.z.shape[1] == pred.mu_p.shape[1]:
-            return self._iterate_compiled(kern, terms, pred, None, 1.0)
+        done = self._iterate_compiled(observations, pred, None, 1.0)
+        if done is not None:
+            return done
         post = pred  # E-Z initialisation, thesis §4.6.1
         log_prior = _uniform_log_prior(pred.mu_p.shape[0] + 1)  # η = 1/(N+1)
         last, exclusive, marginal = self.n_iter - 1, self.exclusive, self.marginal_init
@@ -487,14 +482,19 @@ class VEMEngine:
         return post, [resp], [mass]
 
     def _iterate_compiled(
-        self, kern: Callable[..., int], terms: CompiledTerms, states: CVStates,
-        lam: np.ndarray | None, dt: float,
-    ) -> tuple[CVStates, list[np.ndarray], list[np.ndarray]]:
+        self, observations: Sequence[Any], states: CVStates, lam: CVNoise | None, dt: float,
+    ) -> tuple[CVStates, list[np.ndarray], list[np.ndarray]] | None:
         """:meth:`_iterate_cv_one` in one compiled call (:mod:`avtrack.vem._cv_box_kernel`),
         the same updates, the same results to rounding: from the predicted ``states``, or with
-        ``lam (2, N, k)`` (diagonal Λ_pp, Λ_vv), from the previous posterior ``states``
-        predicted first (``predict_cv`` without a control term)."""
-        n = states.mu_p.shape[0]
+        ``lam`` (diagonal Λ, no control term), from the previous posterior ``states``
+        predicted first (``predict_cv``). None where it does not apply (one model offering
+        its :meth:`~avtrack.vem.model.DiagonalObservationModel.compiled_terms`, Numba)."""
+        kern = _cv_box_kernel.kernel() if self._compiled else None
+        n, k = states.mu_p.shape
+        terms = None if kern is None else self._diagonal_models[0].compiled_terms(
+            observations[0], n)
+        if kern is None or terms is None or terms.z.shape[1] != k:
+            return None
         m = terms.z.shape[0]
         pred = np.array(states)  # (5, N, k), a copy (predicted in place by the kernel)
         post = np.empty_like(pred)
@@ -503,7 +503,8 @@ class VEMEngine:
         app = terms.appearance
         unconverged = kern(terms.z, terms.var, terms.inv_var, terms.log_normaliser,
                            terms.log_clutter, _NO_APPEARANCE if app is None else app,
-                           app is not None, pred, _NO_LAMBDA if lam is None else lam, dt,
+                           app is not None, pred,
+                           _NO_LAMBDA if lam is None else np.array((lam.var_p, lam.var_v)), dt,
                            lam is not None, post, self.n_iter, self.marginal_init,
                            self.update_priors, self.exclusive, resp, mass)
         if unconverged:  # as exclusive_projection warns (not seen in testing)
