@@ -40,8 +40,7 @@ from avtrack.vem.dynamics import (
 )
 from avtrack.vem.engine import VEMEngine
 from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
-from avtrack.vem.updates import ones
-from avtrack.vem.visibility import visibility_step
+from avtrack.vem.visibility import windowed_visibility_step
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
 from avtrack.visual.camera_motion import IDENTITY, apply_motion
 from avtrack.visual.model import (
@@ -393,13 +392,8 @@ class OVBTracker(ManagedTargets):
         """The visibility filter's step (eqs. 3.31–3.32) from the targets' assigned ``mass``
         ``(N,)``: the new posterior ``(N,)`` and the evidence window ``(N, window)``."""
         cfg = self.config
-        if cfg.visibility_window == 1:
-            history, nu = mass[:, None], mass
-        else:
-            history = np.concatenate([mass[:, None], history[:, :-1]], 1)
-            nu = history.dot(ones(cfg.visibility_window))  # Σ over the window
-        return visibility_step(p_visible, nu, cfg.visibility_stay,
-                               cfg.visibility_lambda), history
+        return windowed_visibility_step(p_visible, history, mass, cfg.visibility_stay,
+                                        cfg.visibility_lambda)
 
     @property
     def _splits(self) -> bool:

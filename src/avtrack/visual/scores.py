@@ -21,6 +21,9 @@ import math
 
 import numpy as np
 
+from avtrack._jit import available
+from avtrack.visual import _otsu_kernel
+
 #: scores needed before a split is trusted (below: every detection may start a target)
 MIN_SCORES = 50
 #: histogram bins of the split
@@ -53,6 +56,10 @@ def otsu_threshold_sorted(x: np.ndarray, bins: int = BINS) -> float | None:
     ``np.histogram(x, bins, (x[0], x[-1]))`` (bin ``k`` holds ``edges[k] <= x < edges[k + 1]``,
     the last bin its right edge too) is the difference of the edges' insertion points.
     """
+    kern = _otsu_kernel.kernel() if _compiled() else None
+    if kern is not None:  # the same numbers, in one call
+        t = kern(np.ascontiguousarray(x, dtype=float), int(bins), MIN_SEPARATION)
+        return None if math.isnan(t) else float(t)
     n_x = x.shape[0]
     if n_x < 2:
         return None
@@ -88,6 +95,12 @@ def otsu_threshold_sorted(x: np.ndarray, bins: int = BINS) -> float | None:
     if not abs(m1 - m0) >= MIN_SEPARATION * math.sqrt(0.5 * (v0 + v1)):
         return None  # one class of scores: nothing to tell false alarms by
     return t
+
+
+@functools.cache
+def _compiled() -> bool:
+    """:func:`avtrack._jit.available`, asked once (it looks for Numba on every call)."""
+    return available()
 
 
 @functools.lru_cache(maxsize=8)
