@@ -103,3 +103,25 @@ def test_bad_motion_is_refused():
         track_mot(dets, motion=np.zeros((5, 3, 3)))
     with pytest.raises(ValueError, match="downscale must be an integer >= 1"):
         CameraMotion(downscale=0)
+
+
+def test_a_person_who_appears_under_a_shaking_camera_is_born():
+    """The birth pool's older detections are read where the camera sees them now: with the
+    camera jumping 40 px back and forth every frame, a person who appears at frame 12 is born
+    at once (three detections that no constant velocity fits unless the jumps are undone)."""
+    n = 30
+    offset = np.where(np.arange(n) % 2 == 0, 0.0, 40.0)  # the camera's position
+    rng = np.random.default_rng(3)
+    rows = []
+    for f in range(n):
+        for x in [200.0, 245.0, 290.0] + ([420.0] if f >= 11 else []):
+            rows.append((f + 1, -1, x - offset[f] + rng.normal(0, 1.0),
+                         100 + rng.normal(0, 1.0), 30.0, 80.0, 0.9))
+    a = np.array(rows)
+    dets = MOTData(a[:, 0], a[:, 1], a[:, 2:6], a[:, 6])
+    motion = np.repeat(IDENTITY[None], n, axis=0).copy()
+    motion[1:, 0, 2] = -np.diff(offset)
+    res = track_mot(dets, image_size=(900, 400), motion=motion)
+    ids = np.unique(res.ids)
+    assert ids.size == 4
+    assert sorted(int(res.frames[res.ids == i].min()) for i in ids) == [1, 1, 1, 12]

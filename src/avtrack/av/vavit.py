@@ -367,7 +367,7 @@ class VAVITracker(OVBTracker):
         n_before = eng.n_targets
         if obs.scores is not None:  # weak detections only update targets (OVBTConfig)
             unassigned = unassigned[self._can_birth(obs.scores)[unassigned]]
-        self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
+        self._add_to_pool(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
         if len(self._pool) == vcfg.birth_frames + 1 or (
             vcfg.startup_birth and len(self._pool) == self.frame >= 2
         ):

@@ -23,7 +23,8 @@ from collections.abc import Iterable, Iterator
 
 import numpy as np
 
-__all__ = ["IDENTITY", "CameraMotion", "apply_motion", "frame_motions"]
+__all__ = ["IDENTITY", "CameraMotion", "apply_motion", "compose_motions", "frame_motions",
+           "warp_boxes"]
 
 #: The affine map ``(2, 3)`` of a frame without camera motion.
 IDENTITY = np.array([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
@@ -139,3 +140,23 @@ def apply_motion(motion: np.ndarray, mu: np.ndarray) -> np.ndarray:
     if mu.shape[1] >= 6:
         out[:, 4:6] = mu[:, 4:6] @ lin.T
     return out
+
+
+def compose_motions(later: np.ndarray, earlier: np.ndarray) -> np.ndarray:
+    """The map ``(2, 3)`` of ``earlier`` followed by ``later``."""
+    a = np.asarray(later, dtype=float)
+    b = np.asarray(earlier, dtype=float)
+    out = np.empty((2, 3))
+    out[:, :2] = a[:, :2] @ b[:, :2]
+    out[:, 2] = a[:, :2] @ b[:, 2] + a[:, 2]
+    return out
+
+
+def warp_boxes(motion: np.ndarray, z: np.ndarray, var: np.ndarray,
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Boxes ``z (M, 4)`` (centre x, y, width, height) and the diagonals of their covariances
+    ``var (M, 4)`` seen through the camera motion ``(2, 3)``: :func:`apply_motion` of the boxes,
+    the variances scaled by the zoom squared."""
+    a = np.asarray(motion, dtype=float)
+    zoom2 = float(abs(np.linalg.det(a[:, :2])))
+    return apply_motion(a, z), np.asarray(var, dtype=float) * zoom2

@@ -42,7 +42,7 @@ from avtrack.vem.engine import VEMEngine
 from avtrack.vem.targets import ManagedTargets, PerTarget, births_outside
 from avtrack.vem.visibility import windowed_visibility_step
 from avtrack.visual.appearance import APPEARANCE_MODELS, AppearanceLikelihood
-from avtrack.visual.camera_motion import IDENTITY, apply_motion
+from avtrack.visual.camera_motion import IDENTITY, apply_motion, compose_motions, warp_boxes
 from avtrack.visual.model import (
     BOX_DIM,
     BoxObservationModel,
@@ -227,6 +227,9 @@ class OVBTracker(ManagedTargets):
         self.shown_history: np.ndarray
         self._init_targets()
         self._pool: deque[BoxObservations] = deque(maxlen=cfg.birth_frames + 1)
+        #: per pool frame, the camera's motion from that frame to the latest ``(2, 3)`` (None:
+        #: none), so that births read the older detections where the camera sees them now
+        self._pool_motion: deque[np.ndarray | None] = deque(maxlen=cfg.birth_frames + 1)
         self._has_appearance: bool | None = None
         self._score_split = ScoreSplit()
         # targets ended lately, for re-identification: id -> (frame, (x, y, w), reference)
@@ -338,13 +341,18 @@ class OVBTracker(ManagedTargets):
             self._score_split.add(scores)
         strong: np.ndarray | None = None  # (M,): detections that may start or show a target
         # --- VEM on the existing targets ---------------------------------------------------
+        moved = None if motion is None or np.array_equal(motion, IDENTITY) else motion
+        if moved is not None:
+            self._pool_motion = deque((moved if m is None else compose_motions(moved, m)
+                                       for m in self._pool_motion),
+                                      maxlen=self._pool_motion.maxlen)
         if eng.n_targets:
             control = None
-            if motion is not None and not np.array_equal(motion, IDENTITY):
+            if moved is not None:
                 # the camera's motion as the control term c_tn of eq. 3.34: the prediction
                 # D μ seen through it, minus D μ
                 pred = eng.mu @ eng.transition.T
-                control = apply_motion(motion, pred) - pred
+                control = apply_motion(moved, pred) - pred
             inf = eng.step([obs], self._dyn_var(eng.mu), control)  # Λ is diagonal
             # cap_box_covariance on the engine's states, when some std exceeds its cap
             scale = cap_box_scale(eng.mu, eng.variances, cfg.max_state_std)
@@ -376,7 +384,7 @@ class OVBTracker(ManagedTargets):
             if strong is None:
                 strong = self._strong(scores)
             unassigned = unassigned[strong[unassigned]]
-        self._pool.append(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
+        self._add_to_pool(obs if unassigned.shape[0] == len(obs) else obs.subset(unassigned))
         # Birth over the last B + 1 frames; at the start of a sequence, over all frames so far,
         # so that the people present from the first frame are not held back.
         if len(self._pool) == cfg.birth_frames + 1 or (
@@ -436,11 +444,17 @@ class OVBTracker(ManagedTargets):
                     self.frame, self.engine.mu[i, :3].copy(), refs[i].copy())
         super()._remove(keep)
 
+    def _add_to_pool(self, obs: BoxObservations) -> None:
+        """This frame's detections that no target took, as the birth pool's newest frame."""
+        self._pool.append(obs)
+        self._pool_motion.append(None)  # (no camera motion since this frame yet)
+
     def _birth(self) -> None:
         cfg = self.config
         if 0 in [p.z.shape[0] for p in self._pool]:
             return  # every sequence needs one detection per pool frame
-        pools = [(p.z, p.var) for p in self._pool]
+        pools = [(p.z, p.var) if m is None else warp_boxes(m, p.z, p.var)
+                 for p, m in zip(self._pool, self._pool_motion, strict=True)]
         cands = birth_candidates(pools, self.transition, self._dyn_cov, self._velocity_var,
                                  self.log_clutter, gate=cfg.birth_gate,
                                  dynamics_var=self._dyn_var)
