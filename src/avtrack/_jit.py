@@ -7,13 +7,14 @@ the build fails (warned once), the callers use their NumPy forms.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import warnings
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["available", "build_once"]
+__all__ = ["available", "available_once", "build_once"]
 
 
 def available() -> bool:
@@ -21,6 +22,13 @@ def available() -> bool:
     if os.environ.get("AVTRACK_NO_JIT", "") not in ("", "0"):
         return False
     return importlib.util.find_spec("numba") is not None
+
+
+@functools.cache
+def available_once() -> bool:
+    """:func:`available`, asked once a process (it looks for Numba on every call): for the
+    kernels a tracker consults every frame."""
+    return available()
 
 
 def build_once(

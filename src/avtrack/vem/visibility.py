@@ -18,14 +18,14 @@ Two deliberate readings of the printed equations:
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from avtrack._jit import available, build_once
+from avtrack._jit import available_once as _compiled
+from avtrack._jit import build_once
 
 LIKELIHOOD_FLOOR = 1e-3
 
@@ -67,9 +67,9 @@ def visibility_step(p_visible: np.ndarray, nu: np.ndarray, stay: float, lam: flo
     configuration has checked them: a tracker's every frame)."""
     # Σ_v p(v_t|v_{t-1}) p(v_{t-1}) = π_v p + (1 - π_v)(1 - p)
     prior1 = (1 - stay) + (2 * stay - 1) * p_visible
-    e = np.exp(-lam * np.maximum(nu, 0.0))  # eq. 3.32: visibility_likelihood, inline
-    num1 = np.maximum(1.0 - e, LIKELIHOOD_FLOOR) * prior1
-    return num1 / (num1 + np.maximum(e, LIKELIHOOD_FLOOR) * (1 - prior1))
+    l0, l1 = visibility_likelihood(nu, lam)
+    num1 = l1 * prior1
+    return num1 / (num1 + l0 * (1 - prior1))
 
 
 def windowed_visibility_step(
@@ -123,11 +123,6 @@ def _windowed_loop(
 _KERNEL: Callable[..., tuple[np.ndarray, np.ndarray]] | None = None
 _FAILED = False
 
-
-@functools.cache
-def _compiled() -> bool:
-    """:func:`avtrack._jit.available`, asked once (it looks for Numba on every call)."""
-    return available()
 
 
 def _window_kernel() -> Callable[..., tuple[np.ndarray, np.ndarray]] | None:

@@ -21,7 +21,7 @@ import math
 
 import numpy as np
 
-from avtrack._jit import available
+from avtrack._jit import available_once as _compiled
 from avtrack.visual import _otsu_kernel
 
 #: scores needed before a split is trusted (below: every detection may start a target)
@@ -96,11 +96,6 @@ def otsu_threshold_sorted(x: np.ndarray, bins: int = BINS) -> float | None:
         return None  # one class of scores: nothing to tell false alarms by
     return t
 
-
-@functools.cache
-def _compiled() -> bool:
-    """:func:`avtrack._jit.available`, asked once (it looks for Numba on every call)."""
-    return available()
 
 
 @functools.lru_cache(maxsize=8)
