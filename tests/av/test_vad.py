@@ -24,14 +24,55 @@ def test_voice_activity_tells_speech_from_silence():
     act = V.voice_activity(x, FS)
     assert act.frame_s == 0.01 and act.speech.size == 600
     t = act.time_s
-    assert act.speech[(t > 0.2) & (t < 1.8)].mean() > 0.8
-    assert act.speech[(t > 4.2) & (t < 5.8)].mean() > 0.8
+    # the truth: 10 ms frames of the clean signal within 40 dB of its loudest (the synthetic
+    # speech pauses for a third of a second after 0.4 s)
+    e = (np.concatenate([speech, np.zeros(2 * FS), speech]).reshape(-1, 160) ** 2).mean(axis=1)
+    truth = e > 1e-4 * e.max()
+    assert truth[(t > 0.2) & (t < 1.8)].mean() < 0.85  # the pause is there
+    for part in ((t > 0.2) & (t < 1.8), (t > 4.2) & (t < 5.8)):
+        assert (act.speech[part] == truth[part]).mean() > 0.95
     assert act.speech[(t > 2.3) & (t < 3.7)].mean() < 0.05
     # at arbitrary times (the 8 ms audio frames): the 10 ms frame containing each
     np.testing.assert_array_equal(act.at(np.array([1.0, 3.0, -1.0, 99.0])),
                                   [True, False, False, False])
     with pytest.raises(ValueError, match="aggressiveness"):
         V.voice_activity(x, FS, aggressiveness=4)
+
+
+def test_remove_overhang_by_hand():
+    # runs of 20 and 9 frames (the detector's 9- and 6-frame hangovers at mode 3), one cut by
+    # the signal's end, and a lone frame
+    x = np.zeros(60, dtype=bool)
+    x[2:22] = True  # 11 speech frames + 9 overhang -> 2..12
+    x[30:39] = True  # 3 speech frames + 6 overhang -> 30..32
+    x[45:46] = True  # shorter than any overhang: one frame stays
+    x[55:] = True  # cut by the end: kept whole
+    out = V.remove_overhang(x, 3)
+    want = np.zeros(60, dtype=bool)
+    want[2:13] = want[30:33] = want[45] = True
+    want[55:] = True
+    np.testing.assert_array_equal(out, want)
+    # modes 0-1 hang on longer: 14 frames after a long run
+    y = np.zeros(40, dtype=bool)
+    y[0:30] = True
+    assert np.flatnonzero(V.remove_overhang(y, 0)).max() == 15
+    np.testing.assert_array_equal(V.remove_overhang(np.zeros(5, dtype=bool), 3), np.zeros(5))
+
+
+def test_voice_activity_ends_with_the_speech_not_the_hangover():
+    pytest.importorskip("webrtcvad")
+    rng = np.random.default_rng(3)
+    burst = synthetic_speech(1.0, FS, rng, f0=150.0)
+    burst[-int(0.05 * FS):] *= np.linspace(1, 0, int(0.05 * FS))
+    x = np.concatenate([np.zeros(FS), burst, np.zeros(FS)])
+    x += 1e-3 * rng.standard_normal(x.size)
+    with_hang = V.voice_activity(x, FS, trim_overhang=False)
+    trimmed = V.voice_activity(x, FS)
+    end_raw = with_hang.time_s[with_hang.speech].max()
+    end = trimmed.time_s[trimmed.speech].max()
+    assert end_raw > 2.05  # the detector says speech ~90 ms past the burst's end (2.0 s)
+    assert 1.9 < end <= 2.02
+    assert abs(end_raw - end - 0.09) < 0.015
 
 
 def _two_person_case(hop: float = FRAME_HOP_S):

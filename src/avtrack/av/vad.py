@@ -58,6 +58,13 @@ VAD_MISSING_NOTE = (
 
 _VAD_FS = 16000
 _VAD_FRAME_S = 0.01
+#: The WebRTC detector's overhang at 10 ms frames, by mode: (after a run of at most
+#: ``_OVERHANG_SHORT_RUN`` speech frames, after a longer one) (``vad_core.c``,
+#: ``kOverHangMax1*`` / ``kOverHangMax2*``; ``kMaxSpeechFrames``)
+_OVERHANG_FRAMES = {0: (8, 14), 1: (8, 14), 2: (6, 9), 3: (6, 9)}
+_OVERHANG_SHORT_RUN = 6
+#: :func:`voice_activity` removes the detector's overhang by default
+TRIM_OVERHANG = True
 #: The detector's input is scaled so that this percentile of the amplitudes is half of the
 #: 16-bit full scale (the detector's energy floor is absolute).
 LEVEL_PERCENTILE = 99.9
@@ -135,14 +142,17 @@ class VoiceActivity:
 
 def voice_activity(
     signal: np.ndarray, fs: int, aggressiveness: int = 3, min_speech_s: float = 0.03,
-    max_pause_s: float = 0.1,
+    max_pause_s: float = 0.3, trim_overhang: bool = TRIM_OVERHANG,
 ) -> VoiceActivity:
     """WebRTC voice activity of a one-channel signal, 10 ms frames.
 
     The signal is resampled to 16 kHz and scaled so that its 99.9th amplitude percentile
     (:data:`LEVEL_PERCENTILE`) is half of the 16-bit full scale (the detector's energy floor is
-    absolute). Speech runs shorter than ``min_speech_s`` are dropped, then pauses shorter than
-    ``max_pause_s`` bridged.
+    absolute). The detector's hangover is removed from the end of each speech run
+    (``trim_overhang``, :func:`remove_overhang`); then speech runs shorter than
+    ``min_speech_s`` are dropped and pauses shorter than ``max_pause_s`` bridged (0.3 s: the
+    pauses inside a speaker's turn; chosen on simulated walkouts and meetings, seeds 0-19 of
+    ``benchmarks/bench_vad.py``).
 
     Parameters
     ----------
@@ -151,6 +161,8 @@ def voice_activity(
         Sample rate, Hz.
     aggressiveness : int
         0 (least) to 3 (most aggressive in calling frames non-speech).
+    trim_overhang : bool
+        Remove the detector's hangover (:func:`remove_overhang`).
 
     Raises
     ------
@@ -169,12 +181,13 @@ def voice_activity(
         ratio = Fraction(_VAD_FS, int(fs))
         x = scipy.signal.resample_poly(x, ratio.numerator, ratio.denominator)
     top = float(np.percentile(np.abs(x), LEVEL_PERCENTILE)) if x.size else 0.0
-    return voice_activity_blocks([x], top, aggressiveness, min_speech_s, max_pause_s)
+    return voice_activity_blocks([x], top, aggressiveness, min_speech_s, max_pause_s,
+                                 trim_overhang)
 
 
 def voice_activity_blocks(
     blocks: Iterable[np.ndarray], level: float, aggressiveness: int = 3,
-    min_speech_s: float = 0.03, max_pause_s: float = 0.1,
+    min_speech_s: float = 0.03, max_pause_s: float = 0.3, trim_overhang: bool = TRIM_OVERHANG,
 ) -> VoiceActivity:
     """:func:`voice_activity` of a 16 kHz signal given in consecutive blocks, whose level (the
     99.9th amplitude percentile of the whole signal, :class:`AmplitudeLevel`) is known: the
@@ -206,9 +219,38 @@ def voice_activity_blocks(
                                   dtype=bool))
         rest = x[m * n :]
     speech = np.concatenate(decisions) if decisions else np.zeros(0, dtype=bool)
+    if trim_overhang:
+        speech = remove_overhang(speech, aggressiveness)
     speech = _close_open(speech, _VAD_FRAME_S, max_pause_s, min_speech_s)
     time_s = (np.arange(speech.size) + 0.5) * _VAD_FRAME_S
     return VoiceActivity(time_s, speech, _VAD_FRAME_S)
+
+
+def remove_overhang(speech: np.ndarray, aggressiveness: int) -> np.ndarray:
+    """The WebRTC detector's decisions without its hangover.
+
+    After a run of frames it classifies as speech, the detector keeps saying speech for a
+    fixed number of frames (its *overhang*, ``WebRtcVad`` ``vad_core.c``: at 10 ms frames 6
+    frames after a run of at most 6 speech frames, else 9 in the aggressive modes 2-3; 8 and
+    14 in modes 0-1), so every speech run it reports ends that late. This removes them from
+    the end of every run the signal's end does not cut (at least one frame of each run stays);
+    pauses shorter than the overhang inside a run stay bridged.
+
+    Parameters
+    ----------
+    speech : ndarray (J,) bool
+        ``is_speech`` of consecutive 10 ms frames.
+    aggressiveness : int
+        The detector's mode, 0-3.
+    """
+    short, long = _OVERHANG_FRAMES[int(aggressiveness)]
+    out = np.asarray(speech, dtype=bool).copy()
+    for a, b in _runs(out):
+        if b >= out.size:
+            continue  # cut by the end of the signal: no overhang seen
+        hang = long if b - a - long > _OVERHANG_SHORT_RUN else short
+        out[max(a + 1, b - hang):b] = False
+    return out
 
 
 def _check_detector(aggressiveness: int):
