@@ -73,6 +73,14 @@ def test_voice_activity_ends_with_the_speech_not_the_hangover():
     assert end_raw > 2.05  # the detector says speech ~90 ms past the burst's end (2.0 s)
     assert 1.9 < end <= 2.02
     assert abs(end_raw - end - 0.09) < 0.015
+    # the start: padded by ONSET_PAD_S before the detector's first speech frame
+    start_raw = V.voice_activity(x, FS, onset_pad_s=0.0).time_s
+    start_raw = start_raw[V.voice_activity(x, FS, onset_pad_s=0.0).speech].min()
+    start = trimmed.time_s[trimmed.speech].min()
+    assert start == pytest.approx(start_raw - V.ONSET_PAD_S)
+    assert 0.95 < start <= 1.02  # the burst starts at 1.0 s
+    with pytest.raises(ValueError, match="onset_pad_s"):
+        V.voice_activity(x, FS, onset_pad_s=-0.01)
 
 
 def _two_person_case(hop: float = FRAME_HOP_S):
