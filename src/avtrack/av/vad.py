@@ -8,8 +8,10 @@ made for speech and refines the turns at the localizer's 8 ms frame rate:
 
 * :func:`voice_activity` runs the WebRTC voice activity detector (the ``webrtcvad`` module of
   the ``webrtcvad-wheels`` package, a GMM speech/noise model over six sub-bands) on one
-  microphone, 10 ms frames at 16 kHz; :func:`voice_activity_blocks` does the same on a signal
-  read in blocks, its level measured before by :class:`AmplitudeLevel`;
+  microphone, 10 ms frames at 16 kHz, removes the detector's own hangover from the end of its
+  speech runs (:func:`remove_overhang`) and starts each run :data:`ONSET_PAD_S` earlier;
+  :func:`voice_activity_blocks` does the same on a signal read in blocks, its level measured
+  before by :class:`AmplitudeLevel`;
 * :func:`fuse_speaking` says a person speaks in an 8 ms frame when the detector says speech
   there **and** the person's direction carries the frame's directional energy: the heat-map
   mass within ``window_deg`` of the person's tracked azimuth, smoothed over ``smooth_s``, is
