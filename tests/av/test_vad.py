@@ -281,8 +281,37 @@ def test_voice_activity_in_blocks_is_the_whole_signals():
         np.testing.assert_array_equal(act.time_s, whole.time_s)
 
 
+def test_fusion_gives_each_direction_to_the_nearest_candidate():
+    """Persons 12 deg apart, both heard; the talker stands at person 1 (0 deg), the frame's
+    energy 0.3 / 0.4 / 0.3 at 0 / 5 / 10 deg. Person 2's 10-degree window (2-22 deg) holds
+    0.7, over 0.6 of the frame's peak (1.0): both would speak. Shared out, the 10-degree cell
+    (2 deg from person 2) is hers and the 5-degree cell (5 deg from person 1, 7 from her) is
+    his: 0.7 for person 1, 0.3 for person 2, who is then silent."""
+    fps, n_f = 25.0, 50
+    frames = np.repeat(np.arange(1, n_f + 1), 2)
+    ids = np.tile([1, 2], n_f)
+    az = np.where(ids == 1, 0.0, 12.0)
+    persons = PersonsTable(frames, ids, az, np.zeros(az.size), np.full((az.size, 2), np.nan),
+                           np.ones(az.size, bool), np.ones(az.size), fps)
+    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
+    t_heat = np.arange(round(2.0 / FRAME_HOP_S)) * FRAME_HOP_S + FRAME_HOP_S / 2
+    w = np.zeros((t_heat.size, grid.size))
+    w[:, grid == 0.0] = 0.3
+    w[:, grid == 5.0] = 0.4
+    w[:, grid == 10.0] = 0.3
+    act = V.VoiceActivity((np.arange(200) + 0.5) * 0.01, np.ones(200, bool), 0.01)
+    prof = V.AzimuthProfile(w, t_heat, grid)
+    heard = np.ones(len(persons), bool)
+    mid = (t_heat > 0.2) & (t_heat < 1.8)
+    _, _, both = V.fuse_speaking(persons, heard, prof, act, nearest_only=False)
+    _, _, nearest = V.fuse_speaking(persons, heard, prof, act)
+    assert both[mid].all()
+    assert nearest[mid, 0].all() and not nearest[mid, 1].any()
+
+
 def _dense_fusion(persons, heard, w, t_heat, grid, act, window_deg=10.0, smooth_s=0.2,
-                  share=0.6, min_mass=0.05, margin_s=0.3, hop_s=FRAME_HOP_S):
+                  share=0.6, min_mass=0.05, margin_s=0.3, hop_s=FRAME_HOP_S,
+                  nearest_only=True):
     """:func:`V.fuse_speaking` written over whole ``(frames, persons, directions)`` arrays."""
     from scipy.ndimage import binary_dilation, uniform_filter1d
 
@@ -304,6 +333,13 @@ def _dense_fusion(persons, heard, w, t_heat, grid, act, window_deg=10.0, smooth_
     near = (np.abs((grid[:, None] - grid[None, :] + 180.0) % 360.0 - 180.0) <= window_deg)
     peak = uniform_filter1d(w @ near.astype(float), size=k, axis=0, mode="nearest").max(axis=1)
     top = np.maximum(np.where(cand, mass, 0.0).max(axis=1), peak)[:, None]
+    if nearest_only:  # each direction counted for the nearest candidate only
+        d_cand = np.where(cand[:, :, None], diff, np.inf)  # (J, N, A)
+        closer = np.stack([np.delete(d_cand, n, axis=1).min(axis=1, initial=np.inf) < diff[:, n]
+                           for n in range(ids.size)], axis=1)
+        inside = (diff <= window_deg) & ~closer
+        mass = np.where(alive, np.einsum("ja,jna->jn", w, inside.astype(float)), 0.0)
+        mass = uniform_filter1d(mass, size=k, axis=0, mode="nearest")
     return (cand & (mass >= share * top) & (mass >= min_mass)) & act.at(t_heat)[:, None]
 
 

@@ -14,12 +14,12 @@ made for speech and refines the turns at the localizer's 8 ms frame rate:
   before by :class:`AmplitudeLevel`;
 * :func:`fuse_speaking` says a person speaks in an 8 ms frame when the detector says speech
   there **and** the person's direction carries the frame's directional energy: the heat-map
-  mass within ``window_deg`` of the person's tracked azimuth, smoothed over ``smooth_s``, is
-  at least ``share`` of the frame's strongest direction's (several persons above it:
-  overlapped speech, kept) and at least ``min_mass``. Only persons the tracker heard within
-  ``margin_s`` are candidates, so a person is never made a speaker by the detector alone;
-  The defaults were chosen on seeds 4–9 of the simulated walkouts and meetings
-  (``benchmarks/bench_vad.py``), ``share`` then lowered from 0.7 to 0.6 on seeds 0–19;
+  mass within ``window_deg`` of the person's tracked azimuth (leaving out the directions
+  nearer to another candidate's), smoothed over ``smooth_s``, is at least ``share`` of the
+  frame's strongest direction's (several persons above it: overlapped speech, kept) and at
+  least ``min_mass``. Only persons the tracker heard within ``margin_s`` are candidates, so a
+  person is never made a speaker by the detector alone. The defaults were chosen on seeds
+  0-19 of the simulated walkouts and meetings (``benchmarks/bench_vad.py``);
 * :func:`unclaimed_speakers` groups the speech no person carries by direction into speakers
   never tracked (labels ``U1, U2, ...``), as :func:`~avtrack.av.diarization.unseen_speakers`
   does for the image-plane model: a talker the tracker merged into a neighbour;
@@ -377,11 +377,13 @@ def _near(az_grid: np.ndarray, window_deg: float) -> np.ndarray:
 
 
 def _person_mass(
-    w: np.ndarray, az: np.ndarray, az_grid: np.ndarray, window_deg: float, k: int
+    w: np.ndarray, az: np.ndarray, az_grid: np.ndarray, window_deg: float, k: int,
+    others: np.ndarray | None = None,
 ) -> np.ndarray:
     """Heat-map mass within ``window_deg`` of a person's azimuth ``az`` ``(J,)`` (0 outside
-    the person's life), smoothed over ``k`` frames: ``(J,)``. Computed a few hundred frames at
-    a time (memory: frames x directions)."""
+    the person's life), smoothed over ``k`` frames: ``(J,)``. ``others`` ``(J, M)``: other
+    persons' azimuths (NaN: none); a direction nearer to one of them is not counted. Computed
+    a few hundred frames at a time (memory: frames x directions)."""
     alive = np.isfinite(az)
     a = np.nan_to_num(az)
     mass = np.empty(a.size)
@@ -389,7 +391,12 @@ def _person_mass(
     for j0 in range(0, a.size, rows):
         j1 = j0 + rows
         diff = np.abs((az_grid[None, :] - a[j0:j1, None] + 180.0) % 360.0 - 180.0)
-        mass[j0:j1] = np.einsum("ja,ja->j", w[j0:j1], (diff <= window_deg).astype(float))
+        inside = diff <= window_deg
+        if others is not None:
+            for o in others[j0:j1].T:
+                d_o = np.abs((az_grid[None, :] - o[:, None] + 180.0) % 360.0 - 180.0)
+                inside &= ~(d_o < diff)  # NaN compares False: no other person there
+        mass[j0:j1] = np.einsum("ja,ja->j", w[j0:j1], inside.astype(float))
     mass = np.where(alive, mass, 0.0)
     return uniform_filter1d(mass, size=k, mode="nearest")
 
@@ -452,6 +459,7 @@ def fuse_speaking(
     margin_s: float = 0.3,
     hop_s: float = FRAME_HOP_S,
     frame_peak: bool = True,
+    nearest_only: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Who speaks in each audio frame: voice activity AND the person's directional evidence
     (see the module docstring).
@@ -473,6 +481,10 @@ def fuse_speaking(
         ``share`` of the frame's strongest direction (its mass within ``window_deg``, a
         person there or not), else of the strongest person's: speech from where nobody is
         tracked is then nobody's (:func:`unclaimed_speakers`), not the nearest person's.
+    nearest_only : bool
+        A person's mass leaves out the directions nearer to another candidate's azimuth (the
+        circle shared out between the candidates, each direction to the nearest), so that two
+        persons closer than ``2 window_deg`` do not both carry the speech between them.
 
     Returns
     -------
@@ -502,10 +514,17 @@ def fuse_speaking(
         top = np.maximum(top, np.where(cand, _person_mass(w, az, az_grid, window_deg, k), 0.0))
     speaking = np.zeros((t_heat.size, ids.size), dtype=bool)
     heard_speech = activity.at(t_heat)
+    cand_az = None
+    if nearest_only:
+        cand_az = np.full((t_heat.size, ids.size), np.nan)
+        for n, pid in enumerate(ids.tolist()):
+            az = _person_azimuth(persons, pid, t_heat)
+            cand_az[:, n] = np.where(_candidate(heard[:, n], frame_of, r), az, np.nan)
     for n, pid in enumerate(ids.tolist()):  # again: one person's values at a time in memory
         az = _person_azimuth(persons, pid, t_heat)
         cand = _candidate(heard[:, n], frame_of, r) & np.isfinite(az)
-        mass = _person_mass(w, az, az_grid, window_deg, k)
+        others = None if cand_az is None else np.delete(cand_az, n, axis=1)
+        mass = _person_mass(w, az, az_grid, window_deg, k, others)
         speaking[:, n] = cand & (mass >= share * top) & (mass >= min_mass) & heard_speech
     return t_heat, ids, speaking
 
