@@ -309,9 +309,35 @@ def test_fusion_gives_each_direction_to_the_nearest_candidate():
     assert nearest[mid, 0].all() and not nearest[mid, 1].any()
 
 
+def test_fusion_gives_unclaimed_speech_to_the_person_at_its_peak():
+    """One person heard; the frame's energy 0.4 / 0.3 / 0.3 at 15 / 20 / 25 deg, so the
+    strongest 10-degree window (centred at 20) holds 1.0. A person at 5 deg holds 0.4 in
+    their window, under 0.6 of it, but the strongest direction (15) is within 10 deg of them:
+    they speak. A person at 0 deg is 15 deg from it: the speech stays nobody's."""
+    fps, n_f = 25.0, 50
+    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
+    t_heat = np.arange(round(2.0 / FRAME_HOP_S)) * FRAME_HOP_S + FRAME_HOP_S / 2
+    w = np.zeros((t_heat.size, grid.size))
+    w[:, grid == 15.0] = 0.4
+    w[:, grid == 20.0] = 0.3
+    w[:, grid == 25.0] = 0.3
+    act = V.VoiceActivity((np.arange(200) + 0.5) * 0.01, np.ones(200, bool), 0.01)
+    prof = V.AzimuthProfile(w, t_heat, grid)
+    mid = (t_heat > 0.2) & (t_heat < 1.8)
+    for az0, expect in ((5.0, True), (0.0, False)):
+        frames = np.arange(1, n_f + 1)
+        persons = PersonsTable(frames, np.ones(n_f, int), np.full(n_f, az0), np.zeros(n_f),
+                               np.full((n_f, 2), np.nan), np.ones(n_f, bool), np.ones(n_f), fps)
+        heard = np.ones(n_f, bool)
+        _, _, plain = V.fuse_speaking(persons, heard, prof, act, peak_to_nearest=False)
+        _, _, got = V.fuse_speaking(persons, heard, prof, act)
+        assert not plain[mid].any()
+        assert got[mid, 0].all() if expect else not got[mid].any()
+
+
 def _dense_fusion(persons, heard, w, t_heat, grid, act, window_deg=10.0, smooth_s=0.2,
                   share=0.6, min_mass=0.05, margin_s=0.3, hop_s=FRAME_HOP_S,
-                  nearest_only=True):
+                  nearest_only=True, peak_to_nearest=True):
     """:func:`V.fuse_speaking` written over whole ``(frames, persons, directions)`` arrays."""
     from scipy.ndimage import binary_dilation, uniform_filter1d
 
@@ -340,7 +366,17 @@ def _dense_fusion(persons, heard, w, t_heat, grid, act, window_deg=10.0, smooth_
         inside = (diff <= window_deg) & ~closer
         mass = np.where(alive, np.einsum("ja,jna->jn", w, inside.astype(float)), 0.0)
         mass = uniform_filter1d(mass, size=k, axis=0, mode="nearest")
-    return (cand & (mass >= share * top) & (mass >= min_mass)) & act.at(t_heat)[:, None]
+    eligible = cand & (mass >= min_mass) & act.at(t_heat)[:, None]
+    speaking = eligible & (mass >= share * top)
+    if peak_to_nearest:  # unclaimed speech to the eligible person nearest the strongest cell
+        best = grid[uniform_filter1d(w, size=k, axis=0, mode="nearest").argmax(axis=1)]
+        d = np.abs((np.nan_to_num(az, nan=1e9) - best[:, None] + 180.0) % 360.0 - 180.0)
+        d = np.where(eligible & alive, d, np.inf)
+        rows = np.flatnonzero(eligible.any(axis=1) & ~speaking.any(axis=1))
+        pick = d[rows].argmin(axis=1)
+        ok = d[rows, pick] <= window_deg
+        speaking[rows[ok], pick[ok]] = True
+    return speaking
 
 
 def _random_scene(seed: int, n_persons: int, seconds: float):

@@ -17,9 +17,10 @@ made for speech and refines the turns at the localizer's 8 ms frame rate:
   mass within ``window_deg`` of the person's tracked azimuth (leaving out the directions
   nearer to another candidate's), smoothed over ``smooth_s``, is at least ``share`` of the
   frame's strongest direction's (several persons above it: overlapped speech, kept) and at
-  least ``min_mass``. Only persons the tracker heard within ``margin_s`` are candidates, so a
-  person is never made a speaker by the detector alone. The defaults were chosen on seeds
-  0-19 of the simulated walkouts and meetings (``benchmarks/bench_vad.py``);
+  least ``min_mass``; speech nobody carries goes to the candidate within ``window_deg`` of
+  the frame's strongest direction. Only persons the tracker heard within ``margin_s`` are
+  candidates, so a person is never made a speaker by the detector alone. The defaults were
+  chosen on seeds 0-19 of the simulated walkouts and meetings (``benchmarks/bench_vad.py``);
 * :func:`unclaimed_speakers` groups the speech no person carries by direction into speakers
   never tracked (labels ``U1, U2, ...``), as :func:`~avtrack.av.diarization.unseen_speakers`
   does for the image-plane model: a talker the tracker merged into a neighbour;
@@ -460,6 +461,7 @@ def fuse_speaking(
     hop_s: float = FRAME_HOP_S,
     frame_peak: bool = True,
     nearest_only: bool = True,
+    peak_to_nearest: bool = True,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Who speaks in each audio frame: voice activity AND the person's directional evidence
     (see the module docstring).
@@ -485,6 +487,13 @@ def fuse_speaking(
         A person's mass leaves out the directions nearer to another candidate's azimuth (the
         circle shared out between the candidates, each direction to the nearest), so that two
         persons closer than ``2 window_deg`` do not both carry the speech between them.
+    peak_to_nearest : bool
+        In a frame with speech that no person carries, the candidate nearest to the frame's
+        strongest direction speaks when that direction is within ``window_deg`` of them (and
+        their mass is at least ``min_mass``): the share test compares a person's window with
+        the strongest window anywhere, which a talker standing between two grid directions,
+        or beside another person, can miss. Speech from further away stays nobody's
+        (:func:`unclaimed_speakers`).
 
     Returns
     -------
@@ -520,13 +529,39 @@ def fuse_speaking(
         for n, pid in enumerate(ids.tolist()):
             az = _person_azimuth(persons, pid, t_heat)
             cand_az[:, n] = np.where(_candidate(heard[:, n], frame_of, r), az, np.nan)
+    eligible = np.zeros((t_heat.size, ids.size), dtype=bool)
     for n, pid in enumerate(ids.tolist()):  # again: one person's values at a time in memory
         az = _person_azimuth(persons, pid, t_heat)
         cand = _candidate(heard[:, n], frame_of, r) & np.isfinite(az)
         others = None if cand_az is None else np.delete(cand_az, n, axis=1)
         mass = _person_mass(w, az, az_grid, window_deg, k, others)
-        speaking[:, n] = cand & (mass >= share * top) & (mass >= min_mass) & heard_speech
+        eligible[:, n] = cand & (mass >= min_mass) & heard_speech
+        speaking[:, n] = eligible[:, n] & (mass >= share * top)
+    if peak_to_nearest:
+        _peak_to_nearest(persons, ids, w, t_heat, az_grid, window_deg, k, eligible, speaking)
     return t_heat, ids, speaking
+
+
+def _peak_to_nearest(
+    persons: PersonsTable, ids: np.ndarray, w: np.ndarray, t_heat: np.ndarray,
+    az_grid: np.ndarray, window_deg: float, k: int, eligible: np.ndarray, speaking: np.ndarray
+) -> None:
+    """In the frames where speech is heard but nobody speaks, the eligible person (``(J, N)``
+    bool) nearest to the frame's strongest direction, within ``window_deg`` of it, speaks
+    (``speaking`` ``(J, N)`` is set in place)."""
+    j = np.flatnonzero(eligible.any(axis=1) & ~speaking.any(axis=1))
+    if j.size == 0:
+        return
+    best, _ = _strongest_direction(w, _near(az_grid, window_deg), k)
+    peak_az = az_grid[best[j]]
+    dist = np.full((j.size, ids.size), np.inf)
+    for n, pid in enumerate(ids.tolist()):
+        az = _person_azimuth(persons, pid, t_heat)[j]
+        d = np.abs((az - peak_az + 180.0) % 360.0 - 180.0)
+        dist[:, n] = np.where(eligible[j, n] & np.isfinite(d), d, np.inf)
+    pick = dist.argmin(axis=1)
+    ok = dist[np.arange(j.size), pick] <= window_deg
+    speaking[j[ok], pick[ok]] = True
 
 
 def _heard(
