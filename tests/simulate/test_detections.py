@@ -130,6 +130,35 @@ def test_out_of_view_people_are_absent():
     assert set(out.det_person.tolist()) == {1}
 
 
+def test_a_sub_pixel_sliver_at_the_edge_is_not_seen(tmp_path):
+    """A head cut by the image's edge to a box under a pixel wide is in neither the ground
+    truth nor the detections (MOTChallenge files would write it as 0 pixels wide, which
+    readers refuse); one a few pixels wide is in both, and the files read back."""
+    from avtrack.io.mot import read_mot, write_mot
+    from avtrack.simulate.detections import MIN_BOX_PX
+
+    size = DetectorConfig().head_size
+
+    def width(y: float) -> float:
+        b = CAMERA.head_box(np.array([[3.0, y, 1.6]]), size)[0]
+        return 0.0 if np.isnan(b[2]) else float(b[2])
+
+    lo, hi = 0.0, 5.0  # the box's width shrinks to nothing as the head leaves the view
+    for _ in range(60):  # bisection for a box 0.3 px wide
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if width(mid) > 0.3 else (lo, mid)
+    y_sliver = lo
+    assert 0.0 < width(y_sliver) < MIN_BOX_PX
+    for y, expect in ((y_sliver, False), (y_sliver - 0.05, True)):
+        out = simulate_detections(CAMERA, np.array([[[3.0, y, 1.6]]] * 3),
+                                  np.random.default_rng(0), EXACT)
+        assert (len(out.gt) > 0) is expect and (out.det_person.size > 0) is expect
+        write_mot(tmp_path / "gt.txt", out.gt)
+        write_mot(tmp_path / "det.txt", out.detections)
+        assert len(read_mot(tmp_path / "gt.txt", kind="gt")) == len(out.gt)
+        assert len(read_mot(tmp_path / "det.txt", kind="det")) == len(out.detections)
+
+
 def test_same_seed_same_output():
     cfg = DetectorConfig(false_alarm_rate=1.0)
     a = simulate_detections(CAMERA, walkers(), np.random.default_rng(7), cfg)

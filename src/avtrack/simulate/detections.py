@@ -44,6 +44,10 @@ def _pair(name: str, value: tuple[float, float], positive: bool = False) -> tupl
     return a, b
 
 
+#: Boxes narrower or shorter than this (pixels) are not seen or detected.
+MIN_BOX_PX = 1.0
+
+
 @dataclass(frozen=True)
 class DetectorConfig:
     """Parameters of the simulated head detector (see the module docstring for the model).
@@ -247,6 +251,9 @@ def _head_boxes(
     ``(T, P)``, and the fraction of each hidden by nearer heads ``(T, P)``."""
     n_t, n_p, _ = pos.shape
     boxes = camera.head_box(pos.reshape(-1, 3), cfg.head_size).reshape(n_t, n_p, 4)
+    # a head cut to a sliver under a pixel by the image's edge is not in the image (its box
+    # would also be written as 0 pixels wide in a MOTChallenge file)
+    boxes[(boxes[:, :, 2] < MIN_BOX_PX) | (boxes[:, :, 3] < MIN_BOX_PX)] = np.nan
     _, depth = camera.project(pos.reshape(-1, 3))
     depth = depth.reshape(n_t, n_p)
     seen = np.isfinite(boxes[:, :, 0])  # (T, P)
@@ -298,7 +305,7 @@ def _true_detections(
     shift = cfg.centre_noise * size * e_centre[ht, hp]  # ε_c ~ N(0, (σ_c s)^2)
     corner = b[:, :2] + shift - (new_size - size) / 2  # keeps the centre at c + ε_c
     det_boxes = _clip_boxes(np.column_stack([corner, new_size]), camera)
-    keep = (det_boxes[:, 2] > 0) & (det_boxes[:, 3] > 0)
+    keep = (det_boxes[:, 2] >= MIN_BOX_PX) & (det_boxes[:, 3] >= MIN_BOX_PX)
     ht, hp, det_boxes = ht[keep], hp[keep], det_boxes[keep]
     true_scores = cfg.score_mean[0] + cfg.score_std[0] * e_score[ht, hp]
     noise = cfg.appearance_noise * e_app[ht, hp] / math.sqrt(dim)
