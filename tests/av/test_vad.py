@@ -281,28 +281,38 @@ def test_voice_activity_in_blocks_is_the_whole_signals():
         np.testing.assert_array_equal(act.time_s, whole.time_s)
 
 
+def _still_persons(azimuths: dict[int, float], n_f: int = 50, fps: float = 25.0):
+    """Persons standing at the given azimuths (id -> degrees) for ``n_f`` video frames, all
+    heard throughout."""
+    frames = np.repeat(np.arange(1, n_f + 1), len(azimuths))
+    ids = np.tile(list(azimuths), n_f)
+    az = np.array([azimuths[i] for i in ids.tolist()])
+    return PersonsTable(frames, ids, az, np.zeros(az.size), np.full((az.size, 2), np.nan),
+                        np.ones(az.size, bool), np.ones(az.size), fps)
+
+
+def _still_energy(cells: dict[float, float]):
+    """2 s of heat maps on a 5-degree grid with the same energy in every frame (azimuth ->
+    mass), speech heard throughout; the profile, the activity and the frames away from the
+    ends."""
+    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
+    t_heat = np.arange(round(2.0 / FRAME_HOP_S)) * FRAME_HOP_S + FRAME_HOP_S / 2
+    w = np.zeros((t_heat.size, grid.size))
+    for az, mass in cells.items():
+        w[:, grid == az] = mass
+    act = V.VoiceActivity((np.arange(200) + 0.5) * 0.01, np.ones(200, bool), 0.01)
+    return V.AzimuthProfile(w, t_heat, grid), act, (t_heat > 0.2) & (t_heat < 1.8)
+
+
 def test_fusion_gives_each_direction_to_the_nearest_candidate():
     """Persons 12 deg apart, both heard; the talker stands at person 1 (0 deg), the frame's
     energy 0.3 / 0.4 / 0.3 at 0 / 5 / 10 deg. Person 2's 10-degree window (2-22 deg) holds
     0.7, over 0.6 of the frame's peak (1.0): both would speak. Shared out, the 10-degree cell
     (2 deg from person 2) is hers and the 5-degree cell (5 deg from person 1, 7 from her) is
     his: 0.7 for person 1, 0.3 for person 2, who is then silent."""
-    fps, n_f = 25.0, 50
-    frames = np.repeat(np.arange(1, n_f + 1), 2)
-    ids = np.tile([1, 2], n_f)
-    az = np.where(ids == 1, 0.0, 12.0)
-    persons = PersonsTable(frames, ids, az, np.zeros(az.size), np.full((az.size, 2), np.nan),
-                           np.ones(az.size, bool), np.ones(az.size), fps)
-    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
-    t_heat = np.arange(round(2.0 / FRAME_HOP_S)) * FRAME_HOP_S + FRAME_HOP_S / 2
-    w = np.zeros((t_heat.size, grid.size))
-    w[:, grid == 0.0] = 0.3
-    w[:, grid == 5.0] = 0.4
-    w[:, grid == 10.0] = 0.3
-    act = V.VoiceActivity((np.arange(200) + 0.5) * 0.01, np.ones(200, bool), 0.01)
-    prof = V.AzimuthProfile(w, t_heat, grid)
+    persons = _still_persons({1: 0.0, 2: 12.0})
+    prof, act, mid = _still_energy({0.0: 0.3, 5.0: 0.4, 10.0: 0.3})
     heard = np.ones(len(persons), bool)
-    mid = (t_heat > 0.2) & (t_heat < 1.8)
     _, _, both = V.fuse_speaking(persons, heard, prof, act, nearest_only=False)
     _, _, nearest = V.fuse_speaking(persons, heard, prof, act)
     assert both[mid].all()
@@ -314,21 +324,10 @@ def test_fusion_gives_unclaimed_speech_to_the_person_at_its_peak():
     strongest 10-degree window (centred at 20) holds 1.0. A person at 5 deg holds 0.4 in
     their window, under 0.6 of it, but the strongest direction (15) is within 10 deg of them:
     they speak. A person at 0 deg is 15 deg from it: the speech stays nobody's."""
-    fps, n_f = 25.0, 50
-    grid = np.arange(-90.0, 90.0 + 1e-9, 5.0)
-    t_heat = np.arange(round(2.0 / FRAME_HOP_S)) * FRAME_HOP_S + FRAME_HOP_S / 2
-    w = np.zeros((t_heat.size, grid.size))
-    w[:, grid == 15.0] = 0.4
-    w[:, grid == 20.0] = 0.3
-    w[:, grid == 25.0] = 0.3
-    act = V.VoiceActivity((np.arange(200) + 0.5) * 0.01, np.ones(200, bool), 0.01)
-    prof = V.AzimuthProfile(w, t_heat, grid)
-    mid = (t_heat > 0.2) & (t_heat < 1.8)
+    prof, act, mid = _still_energy({15.0: 0.4, 20.0: 0.3, 25.0: 0.3})
     for az0, expect in ((5.0, True), (0.0, False)):
-        frames = np.arange(1, n_f + 1)
-        persons = PersonsTable(frames, np.ones(n_f, int), np.full(n_f, az0), np.zeros(n_f),
-                               np.full((n_f, 2), np.nan), np.ones(n_f, bool), np.ones(n_f), fps)
-        heard = np.ones(n_f, bool)
+        persons = _still_persons({1: az0})
+        heard = np.ones(len(persons), bool)
         _, _, plain = V.fuse_speaking(persons, heard, prof, act, peak_to_nearest=False)
         _, _, got = V.fuse_speaking(persons, heard, prof, act)
         assert not plain[mid].any()
