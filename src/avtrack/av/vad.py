@@ -513,52 +513,45 @@ def fuse_speaking(
     k = max(1, round(smooth_s / hop_s))
     heard, frame_of = _heard(persons, spk, ids, t_heat)
     r = round(margin_s / hop_s)
+    # each person's azimuth and candidacy per audio frame, (J, N): one value per frame and
+    # person
+    az_all = np.stack([_person_azimuth(persons, pid, t_heat) for pid in ids.tolist()], axis=1)
+    cand_all = np.stack([_candidate(heard[:, n], frame_of, r) for n in range(ids.size)],
+                        axis=1) & np.isfinite(az_all)
     # the strongest mass each person is compared with: the frame's strongest direction's
     # (frame_peak) or the strongest candidate's (masses are >= 0)
     top = (_window_peak(w, _near(az_grid, window_deg), k) if frame_peak
            else np.zeros(t_heat.size))
-    for n, pid in enumerate(ids.tolist()):
-        az = _person_azimuth(persons, pid, t_heat)
-        cand = _candidate(heard[:, n], frame_of, r) & np.isfinite(az)
-        top = np.maximum(top, np.where(cand, _person_mass(w, az, az_grid, window_deg, k), 0.0))
-    speaking = np.zeros((t_heat.size, ids.size), dtype=bool)
+    for n in range(ids.size):
+        mass = _person_mass(w, az_all[:, n], az_grid, window_deg, k)
+        top = np.maximum(top, np.where(cand_all[:, n], mass, 0.0))
+    cand_az = np.where(cand_all, az_all, np.nan) if nearest_only else None
     heard_speech = activity.at(t_heat)
-    cand_az = None
-    if nearest_only:
-        cand_az = np.full((t_heat.size, ids.size), np.nan)
-        for n, pid in enumerate(ids.tolist()):
-            az = _person_azimuth(persons, pid, t_heat)
-            cand_az[:, n] = np.where(_candidate(heard[:, n], frame_of, r), az, np.nan)
     eligible = np.zeros((t_heat.size, ids.size), dtype=bool)
-    for n, pid in enumerate(ids.tolist()):  # again: one person's values at a time in memory
-        az = _person_azimuth(persons, pid, t_heat)
-        cand = _candidate(heard[:, n], frame_of, r) & np.isfinite(az)
+    speaking = np.zeros((t_heat.size, ids.size), dtype=bool)
+    for n in range(ids.size):  # one person's masses at a time in memory
         others = None if cand_az is None else np.delete(cand_az, n, axis=1)
-        mass = _person_mass(w, az, az_grid, window_deg, k, others)
-        eligible[:, n] = cand & (mass >= min_mass) & heard_speech
+        mass = _person_mass(w, az_all[:, n], az_grid, window_deg, k, others)
+        eligible[:, n] = cand_all[:, n] & (mass >= min_mass) & heard_speech
         speaking[:, n] = eligible[:, n] & (mass >= share * top)
     if peak_to_nearest:
-        _peak_to_nearest(persons, ids, w, t_heat, az_grid, window_deg, k, eligible, speaking)
+        _peak_to_nearest(az_all, w, az_grid, window_deg, k, eligible, speaking)
     return t_heat, ids, speaking
 
 
 def _peak_to_nearest(
-    persons: PersonsTable, ids: np.ndarray, w: np.ndarray, t_heat: np.ndarray,
-    az_grid: np.ndarray, window_deg: float, k: int, eligible: np.ndarray, speaking: np.ndarray
+    az_all: np.ndarray, w: np.ndarray, az_grid: np.ndarray, window_deg: float, k: int,
+    eligible: np.ndarray, speaking: np.ndarray
 ) -> None:
     """In the frames where speech is heard but nobody speaks, the eligible person (``(J, N)``
     bool) nearest to the frame's strongest direction, within ``window_deg`` of it, speaks
-    (``speaking`` ``(J, N)`` is set in place)."""
+    (``speaking`` ``(J, N)`` is set in place); ``az_all`` ``(J, N)``: the persons' azimuths."""
     j = np.flatnonzero(eligible.any(axis=1) & ~speaking.any(axis=1))
     if j.size == 0:
         return
     best, _ = _strongest_direction(w, _near(az_grid, window_deg), k)
-    peak_az = az_grid[best[j]]
-    dist = np.full((j.size, ids.size), np.inf)
-    for n, pid in enumerate(ids.tolist()):
-        az = _person_azimuth(persons, pid, t_heat)[j]
-        d = np.abs((az - peak_az + 180.0) % 360.0 - 180.0)
-        dist[:, n] = np.where(eligible[j, n] & np.isfinite(d), d, np.inf)
+    d = np.abs((az_all[j] - az_grid[best[j]][:, None] + 180.0) % 360.0 - 180.0)
+    dist = np.where(eligible[j] & np.isfinite(d), d, np.inf)
     pick = dist.argmin(axis=1)
     ok = dist[np.arange(j.size), pick] <= window_deg
     speaking[j[ok], pick[ok]] = True
