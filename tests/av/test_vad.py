@@ -192,6 +192,61 @@ def test_turn_boundaries_are_refined_at_the_audio_frame_rate():
     assert len(V.activity_segments(tt, np.array([7]), mask, max_gap=0.1)) == 2
 
 
+def _trailing(w: np.ndarray, k: int) -> np.ndarray:
+    """The maps ``w`` ``(T, A)`` trailing by ``k`` frames (uniform before the first)."""
+    out = np.full_like(w, 1.0 / w.shape[1])
+    out[k:] = w[: w.shape[0] - k]
+    return out
+
+
+def test_map_delay_finds_how_far_the_maps_trail_the_speech():
+    _persons, _heard, w, t_heat, grid, act, _turns = _two_person_case()
+    # within a frame (the activity's 10 ms frames and the maps' 8 ms ones do not line up)
+    assert V.map_delay(V.AzimuthProfile(w, t_heat, grid), act) <= FRAME_HOP_S + 1e-12
+    for k in (10, 25, 40):
+        got = V.map_delay(V.AzimuthProfile(_trailing(w, k), t_heat, grid), act)
+        assert abs(got - k * FRAME_HOP_S) <= FRAME_HOP_S + 1e-12
+    # searched up to max_delay_s only
+    got = V.map_delay(V.AzimuthProfile(_trailing(w, 40), t_heat, grid), act, max_delay_s=0.1)
+    assert got <= 0.1 + 1e-12
+    # nothing to line up: no speech, or maps that never change
+    silent = V.VoiceActivity(act.time_s, np.zeros_like(act.speech), act.frame_s)
+    assert V.map_delay(V.AzimuthProfile(w, t_heat, grid), silent) == 0.0
+    flat = np.full_like(w, 1.0 / grid.size)
+    assert V.map_delay(V.AzimuthProfile(flat, t_heat, grid), act) == 0.0
+    with pytest.raises(ValueError, match="max_delay_s"):
+        V.map_delay(V.AzimuthProfile(w, t_heat, grid), act, max_delay_s=-0.1)
+
+
+def test_advance_by_hand():
+    w = np.arange(10.0).reshape(5, 2)
+    t = (np.arange(5) + 0.5) * 0.01
+    prof = V.AzimuthProfile(w, t, np.array([0.0, 5.0]))
+    got = V.advance(prof, 0.02)  # two frames
+    np.testing.assert_array_equal(got.weights, w[[2, 3, 4, 4, 4]])
+    np.testing.assert_array_equal(got.time_s, t)
+    np.testing.assert_array_equal(V.advance(prof, 0.0).weights, w)
+    np.testing.assert_array_equal(w, np.arange(10.0).reshape(5, 2))  # the input unchanged
+    with pytest.raises(ValueError, match="delay_s"):
+        V.advance(prof, -0.01)
+
+
+def test_turn_change_inside_speech_is_found_on_maps_that_trail():
+    """Maps trailing the speech by 0.2 s move the turn change inside speech (P1's end, P2's
+    start) 0.2 s late; advanced by their measured delay, within 0.1 s again."""
+    persons, heard, w, t_heat, grid, act, turns = _two_person_case()
+    late = V.AzimuthProfile(_trailing(w, 25), t_heat, grid)
+
+    def p1_end(profile):
+        t, ids, speaking = V.fuse_speaking(persons, heard, profile, act)
+        by = {s.speaker: s for s in V.activity_segments(t, ids, speaking)}
+        return by["P1"].start + by["P1"].duration
+
+    assert p1_end(late) - turns[1][1] > 0.15
+    aligned = V.advance(late, V.map_delay(late, act))
+    assert abs(p1_end(aligned) - turns[1][1]) <= 0.1
+
+
 def test_missing_detector_is_said_and_raises_a_clear_error(monkeypatch):
     monkeypatch.setitem(sys.modules, "webrtcvad", None)  # import webrtcvad -> ImportError
     assert not V.vad_available()

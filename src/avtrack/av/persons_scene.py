@@ -333,11 +333,14 @@ def _fused_speech(
     persons: PersonsTable, turns: list[RTTMSegment], heat: HeatMaps, grid: DirectionGrid,
     activity: VoiceActivity,
 ) -> list[RTTMSegment]:
-    """The tracker's ``turns`` refined by the voice activity at the heat maps' frame rate."""
+    """The tracker's ``turns`` refined by the voice activity at the heat maps' frame rate, the
+    maps first advanced by their delay behind the speech (:func:`~avtrack.av.vad.map_delay`)."""
     from avtrack.av.vad import (
         AzimuthProfile,
         activity_segments,
+        advance,
         fuse_speaking,
+        map_delay,
         unclaimed_speakers,
     )
 
@@ -350,6 +353,7 @@ def _fused_speech(
     if grid.n_elevations > 1:  # the azimuth profile: sum over elevations
         w = w.reshape(len(heat), grid.n_elevations, grid.n_azimuths).sum(axis=1)
     profile = AzimuthProfile(w, heat.time_s, grid.azimuth_values)
+    profile = advance(profile, map_delay(profile, activity))  # lined up with the speech
     time_s, ids, speaking = fuse_speaking(persons, in_turn, profile, activity)
     centres, unseen = unclaimed_speakers(persons, speaking, profile, activity)
     return sorted(
