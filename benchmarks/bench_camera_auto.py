@@ -7,7 +7,7 @@ array's frame as a user's CAMERA.yaml is), the estimate of :func:`avtrack.av.cal
 from the scene's detections and the peaks of its recording's calibration maps
 (``CALIBRATION_LOCALIZER``, as ``track-av`` places a camera), the errors of yaw, pitch and
 focal length, and MOTA / IDF1 / DER of the direction-space tracker with each camera (the same
-detections, appearance and audio peaks of the persons' maps).
+detections, appearance, audio peaks of the persons' maps and voice activity, as ``track-av``).
 
 Usage::
 
@@ -73,7 +73,7 @@ def run_scene(path: Path) -> dict:
     array = load_array(path / "array.json")
     # one run, as track-av's: the persons' peaks and the peaks that place the camera
     audio = localize_for_persons(ArrayRecording(path / "audio.wav", array, quiet=True),
-                                 scene.fps, scene.n_frames, vad=False, calibration=True)
+                                 scene.fps, scene.n_frames, calibration=True)
     peaks, span = audio.peaks, audio.span_deg
     ev = camera_evidence(scene.detections, audio.calibration_peaks, scene.fps,
                          scene.image_size, line_axis=line_axis(array))
@@ -91,7 +91,8 @@ def run_scene(path: Path) -> dict:
     for name, cam in (("true", true), ("auto", est)):
         res = track_persons(scene.detections, scene.appearance, peaks,
                             CameraGeometry(cam, np.zeros(3), 0.0), scene.fps, scene.n_frames,
-                            azimuth_span_deg=span)
+                            azimuth_span_deg=span, heat=audio.heat, grid=audio.grid,
+                            activity=audio.activity)
         for k, v in score(scene, res).items():
             row[f"{k}_{name}"] = v
     return row

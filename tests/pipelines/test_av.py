@@ -176,6 +176,41 @@ def test_calibration_peaks_come_from_the_same_run_and_leave_the_persons_maps_alo
     assert any(len(a) for a in want)
 
 
+def test_calibration_peaks_are_read_at_the_time_the_maps_describe():
+    """A talker who speaks over [0.5, 2.5) s, from -30 deg before 1.5 s and +30 deg after;
+    the maps trail by 0.2 s. Without the voice activity the peaks of the video frames just
+    after 1.5 s are still at -30 deg; with it, the maps' delay is measured and every frame
+    of speech has its talker's direction (but the frame averaging maps from both sides of the
+    change)."""
+    from avtrack.av.vad import VoiceActivity
+    from avtrack.localize.grid import DirectionGrid
+    from avtrack.pipelines.av_recording import _calibration_peaks
+
+    grid = DirectionGrid(np.arange(-90.0, 90.0 + 1e-9, 5.0), np.zeros(1))
+    hop, fps, n_frames = 0.008, 25.0, 75
+    t = (np.arange(375) + 0.5) * hop
+    said = np.where(t < 1.5, -30.0, 30.0)
+    talking = (t >= 0.5) & (t < 2.5)
+    w = np.full((t.size, grid.size), 0.2 / grid.size)
+    for j in np.flatnonzero(talking):
+        w[j, np.argmin(np.abs(grid.azimuth_deg - said[j]))] += 0.8
+    late = np.full_like(w, 1.0 / grid.size)
+    late[25:] = w[:-25]  # 0.2 s behind
+    t_vad = (np.arange(300) + 0.5) * 0.01
+    act = VoiceActivity(t_vad, (t_vad >= 0.5) & (t_vad < 2.5), 0.01)
+    frame_t = np.arange(n_frames) / fps
+    speaking = (frame_t >= 0.6) & (frame_t < 2.4) & (np.abs(frame_t - 1.5) > 0.04)
+
+    def peaks(activity):
+        got = _calibration_peaks(late, t, grid, fps, n_frames, activity)
+        return {i: got[i] for i in np.flatnonzero(speaking)}
+
+    plain, aligned = peaks(None), peaks(act)
+    truth = {i: np.where(frame_t[i] < 1.5, -30.0, 30.0) for i in plain}
+    assert any(plain[i].tolist() != [truth[i]] for i in plain)  # trailing: -30 after 1.5 s
+    assert all(aligned[i].tolist() == [truth[i]] for i in aligned)
+
+
 def test_own_recording_in_blocks_equals_one_block(own):
     scene_dir, camera, array = own
     inputs = RecordingInputs(camera=camera, detections=scene_dir / "detections.txt",
