@@ -80,7 +80,7 @@ ONSET_PAD_S = 0.04
 #: 16-bit full scale (the detector's energy floor is absolute).
 LEVEL_PERCENTILE = 99.9
 #: Longest delay of the heat maps behind the voice activity that :func:`map_delay` considers,
-#: seconds (twice the delays measured: 0.18-0.25 s).
+#: seconds (twice the longest measured: 0.06-0.25 s).
 MAX_MAP_DELAY_S = 0.5
 #: Values per temporary array of the directional masses (memory: 8 bytes each).
 _CHUNK_VALUES = 1 << 17
@@ -358,8 +358,9 @@ def map_delay(
     eqs. 5.17-5.19, and the DP-RTF features' recursive least squares), so a talker's direction
     gains its mass some frames after they start to speak and keeps it some frames after they
     stop, while the voice activity follows the signal itself. Simulated walkouts and meetings
-    give 0.18-0.25 s on ``dprtf-eg`` maps; other localizers, arrays and rooms differ, hence
-    measured on each recording rather than assumed.
+    give 0.18-0.25 s on ``dprtf-eg`` maps, the real ReSpeaker recordings (talkers at 0.5 m)
+    0.06-0.15 s: it depends on the room, the array and the localizer, hence measured on each
+    recording rather than assumed.
     """
     w, t, _az = profile.checked()
     if not np.isfinite(max_delay_s) or max_delay_s < 0:
