@@ -223,12 +223,39 @@ def test_advance_by_hand():
     t = (np.arange(5) + 0.5) * 0.01
     prof = V.AzimuthProfile(w, t, np.array([0.0, 5.0]))
     got = V.advance(prof, 0.02)  # two frames
-    np.testing.assert_array_equal(got.weights, w[[2, 3, 4, 4, 4]])
+    assert got.lead == 2 and got.weights is w  # not copied
+    maps = got.maps()
+    np.testing.assert_array_equal(maps.rows(0, 5), w[[2, 3, 4, 4, 4]])
+    np.testing.assert_array_equal(maps.rows(1, 3), w[[3, 4]])
+    np.testing.assert_array_equal(maps.columns(np.array([1])), w[[2, 3, 4, 4, 4]][:, [1]])
+    np.testing.assert_array_equal(maps.columns(0), w[[2, 3, 4, 4, 4], 0])
+    assert V.advance(got, 0.01).lead == 3  # leads add up
+    np.testing.assert_array_equal(V.advance(prof, 0.0).maps().rows(0, 5), w)
     np.testing.assert_array_equal(got.time_s, t)
-    np.testing.assert_array_equal(V.advance(prof, 0.0).weights, w)
     np.testing.assert_array_equal(w, np.arange(10.0).reshape(5, 2))  # the input unchanged
     with pytest.raises(ValueError, match="delay_s"):
         V.advance(prof, -0.01)
+    with pytest.raises(ValueError, match="lead"):
+        prof._replace(lead=-1).checked()
+
+
+def test_fusion_on_advanced_maps_equals_fusion_on_the_maps_moved_by_hand():
+    """A lead reads each frame's map later without copying the maps: the fusion and the
+    unclaimed speakers are those of the maps themselves moved."""
+    persons, heard, w, t_heat, grid, act = _random_scene(0, 3, 12.0)
+    ahead = V.advance(V.AzimuthProfile(w, t_heat, grid), 0.2)
+    moved = V.AzimuthProfile(w[np.minimum(np.arange(w.shape[0]) + ahead.lead, w.shape[0] - 1)],
+                             t_heat, grid)
+    assert ahead.lead == 25
+    a = V.fuse_speaking(persons, heard, ahead, act)
+    b = V.fuse_speaking(persons, heard, moved, act)
+    np.testing.assert_array_equal(a[2], b[2])
+    assert a[2].any()
+    ua = V.unclaimed_speakers(persons, a[2], ahead, act)
+    ub = V.unclaimed_speakers(persons, b[2], moved, act)
+    np.testing.assert_array_equal(ua[0], ub[0])
+    np.testing.assert_array_equal(ua[1], ub[1])
+    assert V.map_delay(ahead, act) == V.map_delay(moved, act)
 
 
 def test_turn_change_inside_speech_is_found_on_maps_that_trail():
@@ -485,9 +512,10 @@ def test_unclaimed_speakers_in_column_chunks_equal_the_dense_formula(monkeypatch
     smooth = uniform_filter1d(w, size=k, axis=0, mode="nearest")
     near = np.abs((grid[:, None] - grid[None, :] + 180.0) % 360.0 - 180.0) <= 10.0
     best = smooth.argmax(axis=1)
+    maps = profile.checked().maps()
     np.testing.assert_allclose((smooth @ near)[np.arange(best.size), best],
-                               V._strongest_direction(w, near, k)[1], rtol=1e-12)
-    np.testing.assert_array_equal(V._strongest_direction(w, near, k)[0], best)
+                               V._strongest_direction(maps, near, k)[1], rtol=1e-12)
+    np.testing.assert_array_equal(V._strongest_direction(maps, near, k)[0], best)
     expected = V.unclaimed_speakers(persons, speaking, profile, act)
     assert expected[0].size >= 1
     monkeypatch.setattr(V, "_COLUMNS", 3)

@@ -112,6 +112,8 @@ class AzimuthProfile(NamedTuple):
     weights: np.ndarray  #: (T, A) heat-map mass per frame and azimuth
     time_s: np.ndarray  #: (T,) frame times (the audio frame grid), seconds
     azimuths_deg: np.ndarray  #: (A,) azimuth of each column, degrees
+    #: frames: frame ``j``'s map is ``weights[min(j + lead, T - 1)]`` (:func:`advance`)
+    lead: int = 0
 
     def checked(self) -> AzimuthProfile:
         """The same profile as float arrays, or ValueError when the shapes disagree."""
@@ -121,7 +123,37 @@ class AzimuthProfile(NamedTuple):
         if w.ndim != 2 or w.shape[0] != t.size or w.shape[1] != az.size:
             raise ValueError(f"heat maps {w.shape} do not match their times ({t.size}) and "
                              f"azimuths ({az.size})")
-        return AzimuthProfile(w, t, az)
+        lead = self.lead
+        if isinstance(lead, bool) or not isinstance(lead, int | np.integer) or lead < 0:
+            raise ValueError(f"lead must be a whole number of frames >= 0, got {lead!r}")
+        return AzimuthProfile(w, t, az, int(lead))
+
+    def maps(self) -> _Maps:
+        """Each frame's map (after :meth:`checked`), read a few rows or columns at a time."""
+        return _Maps(self.weights, self.lead)
+
+
+class _Maps:
+    """The heat maps of an :class:`AzimuthProfile`, frame ``j``'s taken ``lead`` frames later
+    (the last repeated at the end), read a few rows or columns at a time: the ``(T, A)`` array
+    is never copied whole."""
+
+    def __init__(self, weights: np.ndarray, lead: int) -> None:
+        self.weights = weights
+        self.shape: tuple[int, ...] = weights.shape
+        n = weights.shape[0]
+        self._rows = None if lead == 0 else np.minimum(np.arange(n) + lead, max(n - 1, 0))
+
+    def rows(self, j0: int, j1: int) -> np.ndarray:
+        """Frames ``j0`` to ``j1`` (exclusive): ``(j1 - j0, A)``."""
+        if self._rows is None:
+            return self.weights[j0:j1]
+        return self.weights[self._rows[j0:j1]]
+
+    def columns(self, cols: np.ndarray | int | np.integer) -> np.ndarray:
+        """Columns ``cols`` of every frame: ``(T, len(cols))``, or ``(T,)`` for one index."""
+        c = self.weights[:, cols]
+        return c if self._rows is None else c[self._rows]
 
 
 @dataclass(frozen=True)
@@ -362,13 +394,17 @@ def map_delay(
     0.06-0.15 s: it depends on the room, the array and the localizer, hence measured on each
     recording rather than assumed.
     """
-    w, t, _az = profile.checked()
+    profile = profile.checked()
+    t = profile.time_s
     if not np.isfinite(max_delay_s) or max_delay_s < 0:
         raise ValueError(f"max_delay_s must be >= 0 seconds, got {max_delay_s!r}")
     if t.size < 2:
         return 0.0
     hop = float(np.median(np.diff(t)))
+    w = profile.weights
     conc = w.max(axis=1) if w.shape[1] else np.zeros(t.size)
+    if profile.lead:
+        conc = conc[np.minimum(np.arange(t.size) + profile.lead, t.size - 1)]
     speech = activity.at(t).astype(float)
     if conc.std() == 0.0 or speech.std() == 0.0:
         return 0.0
@@ -382,14 +418,14 @@ def map_delay(
 def advance(profile: AzimuthProfile, delay_s: float) -> AzimuthProfile:
     """The profile with each frame's map taken ``delay_s`` later (rounded to whole frames of
     the profile's hop; the last frame's map repeats at the end): the maps lined up with the
-    speech after :func:`map_delay`. A new ``(T, A)`` array (the input is not changed)."""
-    w, t, az = profile.checked()
+    speech after :func:`map_delay`. Only :attr:`AzimuthProfile.lead` changes: the maps are
+    neither copied nor changed."""
+    profile = profile.checked()
     if not np.isfinite(delay_s) or delay_s < 0:
         raise ValueError(f"delay_s must be >= 0 seconds, got {delay_s!r}")
+    t = profile.time_s
     hop = float(np.median(np.diff(t))) if t.size > 1 else FRAME_HOP_S
-    k = round(delay_s / hop)
-    rows = np.minimum(np.arange(t.size) + k, max(t.size - 1, 0))
-    return AzimuthProfile(w[rows], t, az)
+    return profile._replace(lead=profile.lead + round(delay_s / hop))
 
 
 def _runs(mask: np.ndarray) -> np.ndarray:
@@ -431,7 +467,7 @@ def _near(az_grid: np.ndarray, window_deg: float) -> np.ndarray:
 
 
 def _person_mass(
-    w: np.ndarray, az: np.ndarray, az_grid: np.ndarray, window_deg: float, k: int,
+    w: _Maps, az: np.ndarray, az_grid: np.ndarray, window_deg: float, k: int,
     others: np.ndarray | None = None,
 ) -> np.ndarray:
     """Heat-map mass within ``window_deg`` of a person's azimuth ``az`` ``(J,)`` (0 outside
@@ -450,7 +486,7 @@ def _person_mass(
             for o in others[j0:j1].T:
                 d_o = np.abs((az_grid[None, :] - o[:, None] + 180.0) % 360.0 - 180.0)
                 inside &= ~(d_o < diff)  # NaN compares False: no other person there
-        mass[j0:j1] = np.einsum("ja,ja->j", w[j0:j1], inside.astype(float))
+        mass[j0:j1] = np.einsum("ja,ja->j", w.rows(j0, j1), inside.astype(float))
     mass = np.where(alive, mass, 0.0)
     return uniform_filter1d(mass, size=k, mode="nearest")
 
@@ -460,7 +496,7 @@ def _column_chunks(n: int) -> list[np.ndarray]:
     return [np.arange(c, min(n, c + _COLUMNS)) for c in range(0, n, _COLUMNS)]
 
 
-def _window_peak(w: np.ndarray, near: np.ndarray, k: int) -> np.ndarray:
+def _window_peak(w: _Maps, near: np.ndarray, k: int) -> np.ndarray:
     """The strongest direction's mass of each frame ``(J,)``: the maximum over directions of
     the heat-map mass within the window of each (``near``), smoothed over ``k`` frames.
 
@@ -470,13 +506,13 @@ def _window_peak(w: np.ndarray, near: np.ndarray, k: int) -> np.ndarray:
         sums = np.zeros((w.shape[0], cols.size))
         for i, c in enumerate(cols):
             for src in np.flatnonzero(near[:, c]):
-                sums[:, i] += w[:, src]
+                sums[:, i] += w.columns(src)
         sums = uniform_filter1d(sums, size=k, axis=0, mode="nearest")
         np.maximum(peak, sums.max(axis=1), out=peak)
     return peak
 
 
-def _strongest_direction(w: np.ndarray, near: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+def _strongest_direction(w: _Maps, near: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """Of the heat maps smoothed over ``k`` frames: each frame's strongest direction (the
     first, on a tie) ``(J,)`` int, and the smoothed mass within its window ``(J,)``, its
     columns added in increasing order. Two passes over a few directions at a time."""
@@ -485,7 +521,7 @@ def _strongest_direction(w: np.ndarray, near: np.ndarray, k: int) -> tuple[np.nd
     best = np.zeros(n_frames, dtype=np.int64)
     best_value = np.full(n_frames, -np.inf)
     for cols in _column_chunks(w.shape[1]):
-        smooth = uniform_filter1d(w[:, cols], size=k, axis=0, mode="nearest")
+        smooth = uniform_filter1d(w.columns(cols), size=k, axis=0, mode="nearest")
         i = smooth.argmax(axis=1)
         v = smooth[rows, i]
         better = (v > best_value) | (np.isnan(v) & ~np.isnan(best_value))  # as argmax
@@ -493,7 +529,7 @@ def _strongest_direction(w: np.ndarray, near: np.ndarray, k: int) -> tuple[np.nd
         best_value[better] = v[better]
     mass = np.zeros(n_frames)
     for cols in _column_chunks(w.shape[1]):
-        smooth = uniform_filter1d(w[:, cols], size=k, axis=0, mode="nearest")
+        smooth = uniform_filter1d(w.columns(cols), size=k, axis=0, mode="nearest")
         for i, c in enumerate(cols):
             inside = near[c, best]
             mass[inside] += smooth[inside, i]
@@ -556,7 +592,8 @@ def fuse_speaking(
         Person ids.
     speaking : ndarray (J, N) bool
     """
-    w, t_heat, az_grid = profile.checked()
+    profile = profile.checked()
+    w, t_heat, az_grid = profile.maps(), profile.time_s, profile.azimuths_deg
     spk = np.asarray(tracker_speaking, dtype=bool).reshape(-1)
     if spk.size != len(persons):
         raise ValueError(f"tracker_speaking has {spk.size} rows, persons {len(persons)}")
@@ -593,7 +630,7 @@ def fuse_speaking(
 
 
 def _peak_to_nearest(
-    az_all: np.ndarray, w: np.ndarray, az_grid: np.ndarray, window_deg: float, k: int,
+    az_all: np.ndarray, w: _Maps, az_grid: np.ndarray, window_deg: float, k: int,
     eligible: np.ndarray, speaking: np.ndarray
 ) -> None:
     """In the frames where speech is heard but nobody speaks, the eligible person (``(J, N)``
@@ -663,7 +700,8 @@ def unclaimed_speakers(
     speaking : ndarray (J, U) bool
         Whether each speaks in each frame of ``profile.time_s``.
     """
-    w, t_heat, az_grid = profile.checked()
+    profile = profile.checked()
+    w, t_heat, az_grid = profile.maps(), profile.time_s, profile.azimuths_deg
     hop = float(np.median(np.diff(t_heat))) if t_heat.size > 1 else FRAME_HOP_S
     if t_heat.size == 0:
         return np.zeros(0), np.zeros((0, 0), dtype=bool)
