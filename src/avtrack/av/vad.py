@@ -473,17 +473,24 @@ def _person_mass(
     """Heat-map mass within ``window_deg`` of a person's azimuth ``az`` ``(J,)`` (0 outside
     the person's life), smoothed over ``k`` frames: ``(J,)``. ``others`` ``(J, M)``: other
     persons' azimuths (NaN: none); a direction nearer to one of them is not counted. Computed
-    a few hundred frames at a time (memory: frames x directions)."""
+    a few hundred frames at a time (memory: frames x directions), skipping the frames where
+    the person, or another, is not there: the work grows with the persons present at once,
+    not with all the persons of the recording."""
     alive = np.isfinite(az)
     a = np.nan_to_num(az)
     mass = np.empty(a.size)
     rows = max(1, _CHUNK_VALUES // max(az_grid.size, 1))
     for j0 in range(0, a.size, rows):
         j1 = j0 + rows
+        if not alive[j0:j1].any():  # the person is not there: 0 (below), no work
+            mass[j0:j1] = 0.0
+            continue
         diff = np.abs((az_grid[None, :] - a[j0:j1, None] + 180.0) % 360.0 - 180.0)
         inside = diff <= window_deg
         if others is not None:
             for o in others[j0:j1].T:
+                if np.isnan(o).all():
+                    continue  # that person is not a candidate in these frames
                 d_o = np.abs((az_grid[None, :] - o[:, None] + 180.0) % 360.0 - 180.0)
                 inside &= ~(d_o < diff)  # NaN compares False: no other person there
         mass[j0:j1] = np.einsum("ja,ja->j", w.rows(j0, j1), inside.astype(float))
