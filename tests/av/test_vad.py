@@ -239,6 +239,19 @@ def test_advance_by_hand():
         prof._replace(lead=-1).checked()
 
 
+def test_profile_of_maps_sums_the_elevations():
+    from avtrack.localize.grid import DirectionGrid
+
+    grid = DirectionGrid(np.array([0.0, 90.0, 180.0]), np.array([0.0, 30.0]))
+    w = np.arange(12.0).reshape(2, 6)  # (frames, elevation-major candidates)
+    t = np.array([0.004, 0.012])
+    prof = V.AzimuthProfile.of_maps(w, t, grid)
+    np.testing.assert_array_equal(prof.weights, [[3.0, 5.0, 7.0], [15.0, 17.0, 19.0]])
+    np.testing.assert_array_equal(prof.azimuths_deg, [0.0, 90.0, 180.0])
+    flat = DirectionGrid(np.arange(6) * 60.0 - 120.0, np.zeros(1))
+    assert V.AzimuthProfile.of_maps(w, t, flat).weights is w  # one elevation: not copied
+
+
 def test_fusion_on_advanced_maps_equals_fusion_on_the_maps_moved_by_hand():
     """A lead reads each frame's map later without copying the maps: the fusion and the
     unclaimed speakers are those of the maps themselves moved."""

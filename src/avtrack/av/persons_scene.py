@@ -349,10 +349,7 @@ def _fused_speech(
     for seg in turns:
         rows = persons.ids == int(seg.speaker[1:])
         in_turn |= rows & (t_row >= seg.start) & (t_row < seg.start + seg.duration)
-    w = heat.weights
-    if grid.n_elevations > 1:  # the azimuth profile: sum over elevations
-        w = w.reshape(len(heat), grid.n_elevations, grid.n_azimuths).sum(axis=1)
-    profile = AzimuthProfile(w, heat.time_s, grid.azimuth_values)
+    profile = AzimuthProfile.of_maps(heat.weights, heat.time_s, grid)
     profile = advance(profile, map_delay(profile, activity))  # lined up with the speech
     time_s, ids, speaking = fuse_speaking(persons, in_turn, profile, activity)
     centres, unseen = unclaimed_speakers(persons, speaking, profile, activity)

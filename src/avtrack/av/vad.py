@@ -45,7 +45,7 @@ import importlib
 import warnings
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from scipy.ndimage import binary_dilation, uniform_filter1d
@@ -53,6 +53,9 @@ from scipy.ndimage import binary_dilation, uniform_filter1d
 from avtrack.audio.stft import FRAME_HOP_S
 from avtrack.io.persons import PersonsTable
 from avtrack.io.rttm import RTTMSegment
+
+if TYPE_CHECKING:
+    from avtrack.localize.grid import DirectionGrid
 
 #: The distribution that ships the detector (its module is ``webrtcvad``).
 VAD_PACKAGE = "webrtcvad-wheels"
@@ -127,6 +130,18 @@ class AzimuthProfile(NamedTuple):
         if isinstance(lead, bool) or not isinstance(lead, int | np.integer) or lead < 0:
             raise ValueError(f"lead must be a whole number of frames >= 0, got {lead!r}")
         return AzimuthProfile(w, t, az, int(lead))
+
+    @classmethod
+    def of_maps(cls, weights: np.ndarray, time_s: np.ndarray, grid: DirectionGrid
+                ) -> AzimuthProfile:
+        """The profile of heat maps ``(T, D)`` over ``grid``: their sum over the elevations
+        (weights that are a distribution over the candidates; the maps themselves on one
+        elevation, not copied), as :func:`~avtrack.localize.grid.azimuth_profile` sums them
+        but without the elevations' argmax."""
+        w = np.asarray(weights)
+        if grid.n_elevations > 1:
+            w = w.reshape(len(w), grid.n_elevations, grid.n_azimuths).sum(axis=1)
+        return cls(w, np.asarray(time_s), grid.azimuth_values)
 
     def maps(self) -> _Maps:
         """Each frame's map (after :meth:`checked`), read a few rows or columns at a time."""

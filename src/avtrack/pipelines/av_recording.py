@@ -248,10 +248,7 @@ def _calibration_peaks(
     error 6.3 -> 5.4 %, BENCHMARKS.md)."""
     delay = 0.0
     if activity is not None:
-        w = calib
-        if grid.n_elevations > 1:  # the azimuth profile: sum over elevations
-            w = w.reshape(len(w), grid.n_elevations, grid.n_azimuths).sum(axis=1)
-        delay = map_delay(AzimuthProfile(w, time_s, grid.azimuth_values), activity)
+        delay = map_delay(AzimuthProfile.of_maps(calib, time_s, grid), activity)
     return audio_peaks(calib, time_s - delay, grid, fps, n_frames,
                        floor=audio_peak_floor(CALIBRATION_LOCALIZER))
 
