@@ -42,7 +42,7 @@ import sys
 from collections.abc import Iterable, Iterator, Sequence
 from fractions import Fraction
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict, Unpack
 
 import numpy as np
 
@@ -54,6 +54,7 @@ from avtrack.viz.palette import person_bgr
 if TYPE_CHECKING:
     from avtrack.av.persons_scene import PersonsResult
     from avtrack.av.vavit import AVSceneResult
+    from avtrack.io.persons import PersonsTable
     from avtrack.io.scene import SceneInputs
 
 #: Four-character code of OpenCV's encoder for each file suffix (for ``.mp4``, used only where
@@ -656,20 +657,37 @@ def _check_inputs(
     return talk, size, float(fps), n
 
 
+class OverlayOptions(TypedDict, total=False):
+    """The keyword options of :func:`render_overlay_frames` and :func:`render_overlay_video`
+    that shape the frames (described, with their defaults, at :func:`render_overlay_video`)."""
+
+    n_frames: int | None
+    gt: MOTData | None
+    camera: PinholeCamera | None
+    room_dims: Sequence[float] | np.ndarray | None
+    show_gt_boxes: bool
+    legend: bool
+    title: str | None
+    persons: PersonsTable | None
+
+
 def _renderer(
     tracks: MOTData,
     speaking: np.ndarray | Sequence[bool] | None,
     image_size: Sequence[int],
     fps: float,
-    n_frames: int | None,
-    gt: MOTData | None,
-    camera: PinholeCamera | None,
-    room_dims: Sequence[float] | np.ndarray | None,
-    show_gt_boxes: bool,
-    legend: bool,
-    title: str | None,
-    persons=None,
+    *,
+    n_frames: int | None = None,
+    gt: MOTData | None = None,
+    camera: PinholeCamera | None = None,
+    room_dims: Sequence[float] | np.ndarray | None = None,
+    show_gt_boxes: bool = True,
+    legend: bool = True,
+    title: str | None = None,
+    persons: PersonsTable | None = None,
 ) -> _Renderer:
+    """The checked inputs of :func:`render_overlay_frames` and :func:`render_overlay_video`
+    (parameters and defaults as there) as the renderer of their frames."""
     talk, size, fps, n = _check_inputs(tracks, speaking, image_size, fps, n_frames, gt)
     if not isinstance(show_gt_boxes, bool) or not isinstance(legend, bool):
         raise TypeError("show_gt_boxes and legend must be booleans")
@@ -686,15 +704,7 @@ def render_overlay_frames(
     speaking: np.ndarray | Sequence[bool] | None,
     image_size: Sequence[int],
     fps: float,
-    *,
-    n_frames: int | None = None,
-    gt: MOTData | None = None,
-    camera: PinholeCamera | None = None,
-    room_dims: Sequence[float] | np.ndarray | None = None,
-    show_gt_boxes: bool = True,
-    legend: bool = True,
-    title: str | None = None,
-    persons=None,
+    **options: Unpack[OverlayOptions],
 ) -> Iterator[np.ndarray]:
     """The frames of :func:`render_overlay_video`, one at a time (the inputs are checked and
     the background drawn before the first one is asked for).
@@ -707,10 +717,7 @@ def render_overlay_frames(
         BGR frames ``1, ..., n_frames``; ``height'`` and ``width'`` are ``height`` and
         ``width`` rounded up to even numbers.
     """
-    r = _renderer(
-        tracks, speaking, image_size, fps, n_frames, gt, camera, room_dims, show_gt_boxes,
-        legend, title, persons,
-    )
+    r = _renderer(tracks, speaking, image_size, fps, **options)
     return (r.frame(f) for f in range(1, r.n_frames + 1))
 
 
@@ -905,18 +912,11 @@ def render_overlay_video(
     image_size: Sequence[int],
     fps: float,
     *,
-    n_frames: int | None = None,
-    gt: MOTData | None = None,
-    camera: PinholeCamera | None = None,
-    room_dims: Sequence[float] | np.ndarray | None = None,
     codec: str | None = None,
-    show_gt_boxes: bool = True,
-    legend: bool = True,
-    title: str | None = None,
     progress: bool = False,
-    persons=None,
     frames: Iterable[np.ndarray] | None = None,
     also_to: Sequence[str | Path] = (),
+    **options: Unpack[OverlayOptions],
 ) -> Path:
     """Write the video of the tracks and their speaking status over the rendered room, or
     over the real video's frames (``frames``).
@@ -986,10 +986,7 @@ def render_overlay_video(
         raise TypeError(f"also_to must be a sequence of paths, got the single path {also_to!r}")
     targets = [(Path(path), _encoder(Path(path), codec))]
     targets += [(Path(p), _encoder(Path(p), None)) for p in also_to]
-    r = _renderer(
-        tracks, speaking, image_size, fps, n_frames, gt, camera, room_dims, show_gt_boxes,
-        legend, title, persons,
-    )
+    r = _renderer(tracks, speaking, image_size, fps, **options)
     _encode_videos(targets, r, frames, progress)
     return Path(path)
 
