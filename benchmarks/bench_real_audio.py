@@ -52,11 +52,11 @@ from avtrack.audio.arrays import MicArray, load_array  # noqa: E402
 from avtrack.audio.recording import read_array_audio  # noqa: E402
 from avtrack.doa import TRACKERS  # noqa: E402
 from avtrack.io.doa import wrap_azimuth  # noqa: E402
-from avtrack.localize import LOCALIZERS, make_localizer, peak_table  # noqa: E402
+from avtrack.localize import DEFAULT_LOCALIZER, LOCALIZERS, make_localizer, peak_table  # noqa: E402
 from avtrack.stream.audio import DOAStream  # noqa: E402
 
 DEFAULT_ROOT = Path(__file__).resolve().parents[2] / "shared" / "data" / "realaudio"
-DEFAULT_METHOD = "dprtf-eg-fast"
+DEFAULT_METHOD = DEFAULT_LOCALIZER
 GATE_DEG = 20.0
 MIN_SPEECH_S = 1.0  # simulated talkers who speak less are not counted
 #: localizer configurations other than the defaults (``--set``), by method
@@ -166,7 +166,7 @@ def localizer_scores(rec: Recording, array: MicArray, x: np.ndarray, method: str
 def tracker_scores(rec: Recording, array: MicArray, x: np.ndarray, tracker: str,
                    min_active: int, method: str = DEFAULT_METHOD) -> dict:
     stream = DOAStream(array, method=method, tracker=tracker, method_config=CONFIGS.get(method))
-    outs = stream.push(x)
+    outs = stream.push(x) + stream.finish()
     by_id: dict[int, list[float]] = {}
     for out in outs:
         tr = out.tracks

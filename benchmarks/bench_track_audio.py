@@ -10,21 +10,22 @@ rate of thesis §5.5.2), after the first ``--skip`` seconds, with the protocol o
 MD / FA rates, MAE) plus identity switches and OSPA (order 2, cut-off 30°, LOCATA). Components
 are summed over the scenes of a dataset.
 
-* frame-wise methods (SRP-PHAT, PRP-REM, DPRTF-REM, DPRTF-EG): the peaks of each frame above a
-  threshold; as in the thesis, the threshold is swept and the point of the ROC curve closest to
-  the origin (MD, FA) is reported, per method and dataset;
-* trackers on the heat maps of the default localizer ``dprtf-eg-fast`` (``track-audio``'s and
-  ``stream``'s pipeline) and, for reference, of the thesis's ``dprtf-eg``, with their default
-  parameters for those maps (:func:`avtrack.doa.base.map_reading`; chosen on development
-  seeds < 100, not the benchmark seeds), and with their activity threshold δ (eqs. 5.43 /
-  5.62) swept like the peak threshold (ROC-best δ, the same protocol as the frame-wise
-  methods): ``VEM + EG`` (:class:`~avtrack.doa.gauss.GaussDOATracker`, thesis §5.4) and
-  ``vM-VEM + EG`` (:class:`~avtrack.doa.vonmises.VonMisesDOATracker`, thesis §5.6), each on
-  its default observations for the map (fast maps: the peaks at or above 1.15 times the
-  uniform weight; thesis maps: every candidate above the frame's median for the Gaussian
+* frame-wise methods (SRP-PHAT, PRP-REM, DPRTF-REM, DPRTF-EG and its variants): the peaks of
+  each frame above a threshold; as in the thesis, the threshold is swept and the point of the
+  ROC curve closest to the origin (MD, FA) is reported, per method and dataset;
+* trackers on the heat maps of the default localizer ``dprtf-eg-smooth`` (``track-audio``'s and
+  ``stream``'s pipeline) and, for reference, of ``dprtf-eg-fast`` (the same map without the
+  smoother) and of the thesis's ``dprtf-eg``, with their default parameters for those maps
+  (:func:`avtrack.doa.base.map_reading`; chosen on development seeds < 100, not the benchmark
+  seeds), and with their activity threshold δ (eqs. 5.43 / 5.62) swept like the peak threshold
+  (ROC-best δ, the same protocol as the frame-wise methods): ``VEM + EG``
+  (:class:`~avtrack.doa.gauss.GaussDOATracker`, thesis §5.4) and ``vM-VEM + EG``
+  (:class:`~avtrack.doa.vonmises.VonMisesDOATracker`, thesis §5.6), each on its default
+  observations for the map (fast maps: the peaks at or above 1.15 times the uniform weight, 1.55
+  on the smoothed ones; thesis maps: every candidate above the frame's median for the Gaussian
   tracker, the peaks above 1.44 times the uniform weight for the von Mises tracker), and the
-  peer ``GM-PHD + EG`` (Stone Soup's GM-PHD tracker, :class:`~avtrack.doa.gmphd.GMPHDPeer`,
-  on the peaks above ``PEAK_FLOOR`` = 0.05, the floor it was tuned with).
+  peer ``GM-PHD + EG`` (Stone Soup's GM-PHD tracker, :class:`~avtrack.doa.gmphd.GMPHDPeer`, on
+  the peaks above ``PEAK_FLOOR`` = 0.05, the floor it was tuned with).
 
 RF = (localization time + tracking time) / signal length, measured in this process with BLAS
 on one thread.
@@ -85,7 +86,7 @@ from avtrack.simulate.heatmaps import synthetic_heatmaps  # noqa: E402
 
 STEP = 4  # localizer frames per tracker frame (32 ms)
 HOP_S = 0.008
-METHODS = ("srp-phat", "prp-rem", "dprtf-rem", "dprtf-eg", "dprtf-eg-fast")
+METHODS = ("srp-phat", "prp-rem", "dprtf-rem", "dprtf-eg", "dprtf-eg-fast", "dprtf-eg-smooth")
 LABELS = {
     "srp-phat": "SRP-PHAT",
     "prp-rem": "PRP-REM",
@@ -93,6 +94,7 @@ LABELS = {
     "dprtf-eg": "DPRTF-EG",
     "dprtf-eg-fast": "DPRTF-EG-fast",
     "dprtf-eg-static": "DPRTF-EG-static",
+    "dprtf-eg-smooth": "DPRTF-EG-smooth",
 }
 #: localizers scored and read only when asked for (``--methods`` / ``--maps``)
 OPTIONAL = ("dprtf-eg-static",)
@@ -102,7 +104,7 @@ TRACKERS = (
     ("GM-PHD + EG (Stone Soup)", "gmphd"),
 )
 #: Heat maps the trackers run on: the default pipeline's first, then the thesis's.
-TRACKER_MAPS = ("dprtf-eg-fast", "dprtf-eg")
+TRACKER_MAPS = ("dprtf-eg-smooth", "dprtf-eg-fast", "dprtf-eg")
 #: localizer configurations other than the defaults (``--set``), by method
 CONFIGS: dict[str, object] = {}
 DATASETS = (

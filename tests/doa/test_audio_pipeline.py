@@ -1,5 +1,6 @@
-"""DPRTF-EG + the DOA trackers on rendered audio: a talker who stops and a talker who walks
-(issue 23). A speech-like source (coloured noise bursts, 300 ms on / 100 ms off) at 2 m from
+"""DPRTF-EG + the DOA trackers on rendered audio: a talker who stops and a talker who walks. The
+default map (``dprtf-eg-smooth``) and the same map read without delay (``dprtf-eg-fast``).
+A speech-like source (coloured noise bursts, 300 ms on / 100 ms off) at 2 m from
 the nao4 array in a 6 x 5 x 3 m room, T60 = 0.3 s, weak sensor noise."""
 
 from __future__ import annotations
@@ -13,8 +14,7 @@ import scipy.signal
 from avtrack.audio.arrays import builtin_array
 from avtrack.doa.base import heatmap_sequence, make_tracker, map_reading
 from avtrack.io.doa import wrap_azimuth
-from avtrack.localize import DirectionGrid, make_localizer
-from avtrack.localize.cgmm_eg import FastEGConfig
+from avtrack.localize import DEFAULT_LOCALIZER, LOCALIZERS, DirectionGrid, make_localizer
 from avtrack.metrics.doa import angular_error
 from avtrack.simulate.acoustics import ArrayPose, MovingSource, Room, render
 
@@ -65,20 +65,23 @@ def walking_talker():
     return _render(MovingSource(x, times, _at(az)), 2), on
 
 
-#: The default localizer (``track-audio``, ``stream``) with its heat map gated by the evidence
-#: (EGConfig.output_silence_rate): in frames without enough DP-RTF features the map relaxes to
-#: uniform at 0.15 per 8 ms frame.
-METHOD = "dprtf-eg-fast"
-GATED = FastEGConfig(output_silence_rate=0.15)
+#: The default localizer (``track-audio``, ``stream``) and the same map without the smoother
+METHODS = (DEFAULT_LOCALIZER, "dprtf-eg-fast")
 
 
-def _track(y: np.ndarray, tracker: str, config: FastEGConfig | None = None):
-    """The default pipeline: ``METHOD``'s heat maps read by the tracker as ``map_reading``
-    says (``track-audio AUDIO.wav --tracker TRACKER``)."""
+def _gated(method: str):
+    """``method``'s map gated by the evidence (EGConfig.output_silence_rate): in frames without
+    enough DP-RTF features the map relaxes to uniform at 0.15 per 8 ms frame."""
+    return LOCALIZERS[method].Config(output_silence_rate=0.15)
+
+
+def _track(y: np.ndarray, tracker: str, method: str, config=None):
+    """The pipeline of ``track-audio AUDIO.wav --method METHOD --tracker TRACKER``:
+    ``method``'s heat maps read by the tracker as ``map_reading`` says."""
     array = builtin_array("nao4")
     grid = DirectionGrid.azimuths()
-    h = make_localizer(METHOD, array, grid, config).run(y)
-    reading = map_reading(tracker, METHOD)
+    h = make_localizer(method, array, grid, config).run(y)
+    reading = map_reading(tracker, method)
     seq = heatmap_sequence(
         h.weights, grid.azimuth_deg, h.frames, h.time_s, STEP, reading.observations,
         uniform_floor=reading.uniform_floor,
@@ -86,10 +89,11 @@ def _track(y: np.ndarray, tracker: str, config: FastEGConfig | None = None):
     return h, seq, make_tracker(tracker, reading.config).run(seq)
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("tracker", ["gauss", "vonmises"])
-def test_a_talker_who_stops_is_not_reported_after_0_3_s(stopping_talker, tracker):
+def test_a_talker_who_stops_is_not_reported_after_0_3_s(stopping_talker, tracker, method):
     y, stop_s = stopping_talker
-    _, seq, tracks = _track(y, tracker, GATED)
+    _, seq, tracks = _track(y, tracker, method, _gated(method))
     # reported while speaking ...
     speaking = tracks.active & (tracks.time_s > 1.0) & (tracks.time_s < stop_s)
     assert np.count_nonzero(speaking) >= 0.8 * np.count_nonzero(
@@ -101,10 +105,12 @@ def test_a_talker_who_stops_is_not_reported_after_0_3_s(stopping_talker, tracker
     assert not late.any(), tracks.time_s[late].min()
 
 
+@pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("tracker", ["gauss", "vonmises"])
-def test_a_talker_walking_at_30_deg_per_s_is_followed_within_5_deg(walking_talker, tracker):
+def test_a_talker_walking_at_30_deg_per_s_is_followed_within_5_deg(walking_talker, tracker,
+                                                                   method):
     y, on = walking_talker
-    _, seq, tracks = _track(y, tracker)
+    _, seq, tracks = _track(y, tracker, method)
     truth = -60.0 + 30.0 * seq.time_s
     speaking = on[np.minimum((seq.time_s * FS).astype(int), on.size - 1)]
     frames = np.flatnonzero((seq.time_s >= 1.0) & speaking)
@@ -117,19 +123,19 @@ def test_a_talker_walking_at_30_deg_per_s_is_followed_within_5_deg(walking_talke
     assert np.mean(err[err <= 15.0]) <= 5.0
 
 
-@pytest.fixture(scope="module")
-def walking_map(walking_talker):
+@pytest.fixture(scope="module", params=METHODS)
+def walking_map(walking_talker, request):
     y, _ = walking_talker
     grid = DirectionGrid.azimuths()
-    return grid, make_localizer(METHOD, builtin_array("nao4"), grid).run(y)
+    return request.param, grid, make_localizer(request.param, builtin_array("nao4"), grid).run(y)
 
 
 @pytest.mark.parametrize("tracker", ["gauss", "vonmises"])
 def test_the_lead_compensates_the_maps_delay_on_a_walking_talker(walking_map, tracker):
-    """The map's peak trails a talker walking at 30°/s by about 0.07 s (2°); the default
-    reading reports the direction predicted ``lead_s`` ahead, which cuts that bias."""
-    grid, h = walking_map
-    reading = map_reading(tracker, METHOD)
+    """The map's peak trails a talker walking at 30°/s; the default reading reports the
+    direction predicted ``lead_s`` ahead, which cuts that bias."""
+    method, grid, h = walking_map
+    reading = map_reading(tracker, method)
     assert reading.config.lead_s == pytest.approx(0.15)
     seq = heatmap_sequence(
         h.weights, grid.azimuth_deg, h.frames, h.time_s, STEP, reading.observations,

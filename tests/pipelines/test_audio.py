@@ -30,10 +30,13 @@ def _same_table(a: DOATable, b: DOATable) -> None:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
-@pytest.mark.parametrize("block_s", [0.05, 1.0])
-def test_localize_recording_gives_the_whole_signal_peaks(recording, block_s):
+@pytest.mark.parametrize(("method", "block_s"), [("dprtf-eg", 0.05), ("dprtf-eg", 1.0),
+                                                  ("dprtf-eg-smooth", 0.05)])
+def test_localize_recording_gives_the_whole_signal_peaks(recording, method, block_s):
+    """Block by block, the peaks of the whole signal's maps; a smoothing map's last frames
+    (held back 0.2 s) come at the end."""
     array, x, path = recording
-    loc = make_localizer("dprtf-eg", array)
+    loc = make_localizer(method, array)
     heat = loc.run(x)
     expected = peak_table(heat, loc.grid, 0.05, None, None, loc.profile_reduce)
     chunks: list[DOATable] = []

@@ -18,7 +18,7 @@ from avtrack.doa.base import (
     map_reading,
 )
 from avtrack.io.scenario import validate_scenario
-from avtrack.localize import make_localizer
+from avtrack.localize import DEFAULT_LOCALIZER, make_localizer
 from avtrack.localize.grid import azimuth_profile
 from avtrack.simulate.library import named_scenario
 from avtrack.simulate.scene import simulate_scene
@@ -44,7 +44,7 @@ def blocks_of(x: np.ndarray, sizes) -> list[np.ndarray]:
     return out
 
 
-def batch_doa_tracks(array, x, tracker: str, step: int = 4, method: str = "dprtf-eg-fast"):
+def batch_doa_tracks(array, x, tracker: str, step: int = 4, method: str = DEFAULT_LOCALIZER):
     """The batch pipeline with the stream's defaults: ``method``'s maps, read as
     :func:`map_reading` says."""
     loc = make_localizer(method, array)
@@ -70,7 +70,7 @@ def test_doa_stream_equals_the_batch_pipeline(tracker, sizes):
     array, x = meeting()
     seq, expected = batch_doa_tracks(array, x, tracker)
     stream = DOAStream(array, tracker=tracker)
-    got = [f for b in blocks_of(x, sizes) for f in stream.push(b)]
+    got = [f for b in blocks_of(x, sizes) for f in stream.push(b)] + stream.finish()
     assert len(got) == len(seq) > 100
     np.testing.assert_array_equal([g.frame for g in got], seq.frames)
     np.testing.assert_allclose([g.time_s for g in got], seq.time_s)
@@ -92,9 +92,13 @@ def test_doa_stream_reset_starts_over():
 
 def test_doa_stream_latency_and_frame_period():
     array, _ = meeting()
-    stream = DOAStream(array, step=4)
+    stream = DOAStream(array, step=4, method="dprtf-eg-fast")
     assert stream.latency_s == pytest.approx((256 + 3 * 128) / 16000)
     assert stream.tracker.frame_period_s == pytest.approx(0.032)
+    # the default map is read 0.2 s (25 frames of 8 ms) late
+    stream = DOAStream(array, step=4)
+    assert stream.localizer.latency_frames == 25
+    assert stream.latency_s == pytest.approx((256 + 28 * 128) / 16000)
 
 
 @pytest.mark.parametrize(

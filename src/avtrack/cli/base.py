@@ -94,16 +94,17 @@ def add_array_option(
 
 def add_localizer_option(parser: argparse.ArgumentParser, note: str = "") -> None:
     """``--method NAME``: the localizer of the heat maps (a registered name, default
-    ``dprtf-eg-fast``); ``note`` adds to the help."""
-    from avtrack.localize import LOCALIZERS
+    :data:`~avtrack.localize.base.DEFAULT_LOCALIZER`); ``note`` adds to the help."""
+    from avtrack.localize import DEFAULT_LOCALIZER, LOCALIZERS
 
     parser.add_argument(
         "--method",
         choices=sorted(LOCALIZERS),
-        default="dprtf-eg-fast",
-        help=f"localizer{note}; default: dprtf-eg-fast (DPRTF-EG with fast position weights; "
-        "dprtf-eg-static: the same for talkers who stay in place; dprtf-eg: the thesis's "
-        "estimator)",
+        default=DEFAULT_LOCALIZER,
+        help=f"localizer{note}; default: {DEFAULT_LOCALIZER} (DPRTF-EG with position weights "
+        "in velocity layers, each frame's map read 0.2 s later through a fixed-lag smoother; "
+        "dprtf-eg-fast: the same map without the smoother, no delay; dprtf-eg-static: for "
+        "talkers who stay in place; dprtf-eg: the thesis's estimator)",
     )
 
 

@@ -1,7 +1,8 @@
 """``avtrack track-audio``: acoustic multi-speaker tracking from a microphone-array WAV.
 
-Localizes every 8 ms frame (a registered localizer, ``dprtf-eg-fast`` by default: DPRTF-EG
-with its peaks placed by fast position weights, heat maps over the candidate azimuths), then
+Localizes every 8 ms frame (a registered localizer, ``dprtf-eg-smooth`` by default: DPRTF-EG
+with its peaks placed by position weights in velocity layers, each frame's map read 0.2 s
+later through a fixed-lag smoother; heat maps over the candidate azimuths), then
 tracks the speakers with a VEM tracker updated every 32 ms (thesis
 §5.5.2): ``--tracker gauss`` (thesis §5.4) or ``vonmises`` (thesis §5.6). With ``--doa`` the
 observations come from a DOA CSV instead (any localizer's peaks), so tracking can follow any
@@ -76,10 +77,11 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="""\
 Track several speakers from a microphone-array recording (thesis ch. 5): frame-wise
 localization every 8 ms, then a variational-EM tracker every 32 ms that keeps the
-identities through speech pauses and says who is speaking. On dprtf-eg-fast maps (the
-default) and dprtf-eg-static maps the tracker reads a map only up to 0.2 s after the
-localizer's latest frame with speech features, so tracks fall silent soon after talking
-stops. Azimuths are in the array frame, counter-clockwise from x, in (-180, 180].""",
+identities through speech pauses and says who is speaking. On dprtf-eg-smooth maps (the
+default; each frame's map comes 0.2 s after the frame), dprtf-eg-fast and dprtf-eg-static maps
+the tracker reads a map only up to 0.15-0.2 s after the localizer's latest frame with speech
+features, so tracks fall silent soon after talking stops. Azimuths are in the array
+frame, counter-clockwise from x, in (-180, 180].""",
         epilog=EXAMPLES,
     )
     p.add_argument(
@@ -110,9 +112,10 @@ stops. Azimuths are in the array frame, counter-clockwise from x, in (-180, 180]
         choices=OBSERVATION_MODES,
         help="from heat maps: every candidate direction with its weight (all), the same with "
         "each frame's median weight removed (above-median), only the peaks >= 0.05 (peaks), "
-        "or only the peaks >= F x the uniform weight (peaks-over-uniform; F = 1.15 on "
-        "dprtf-eg-fast and -static maps, else 1.44); default: peaks-over-uniform on those, "
-        "else above-median for gauss and peaks-over-uniform for vonmises",
+        "or only the peaks >= F x the uniform weight (peaks-over-uniform; F = 1.55 on "
+        "dprtf-eg-smooth maps, 1.15 on dprtf-eg-fast and -static maps, else 1.44); default: "
+        "peaks-over-uniform on those, else above-median for gauss and peaks-over-uniform for "
+        "vonmises",
     )
     p.add_argument(
         "--step",
@@ -123,10 +126,9 @@ stops. Azimuths are in the array frame, counter-clockwise from x, in (-180, 180]
     )
     add_algorithm_config_option(
         p, "the --tracker's GaussConfig / VonMisesConfig",
-        ", over its defaults for the localizer's maps (on dprtf-eg-fast and -static maps the "
-        "trackers report "
-        "the direction predicted 0.15 s ahead, latency compensation; 'lead_s: 0' reports the "
-        "filtered one)")
+        ", over its defaults for the localizer's maps (on dprtf-eg-smooth, -fast and -static "
+        "maps the trackers report the direction predicted 0.15 s ahead, latency compensation; "
+        "'lead_s: 0' reports the filtered one)")
     p.add_argument(
         "--plot",
         type=Path,

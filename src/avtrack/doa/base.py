@@ -177,15 +177,44 @@ FAST_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
 #: turn stay spoken, the tail after it is cut (BENCHMARKS.md, acoustic tracking).
 FAST_MAP_EVIDENCE_HOLD_S = 0.2
 
+#: How much higher the trackers' peak floor and activity and birth thresholds stand on
+#: ``dprtf-eg-smooth`` maps than on ``dprtf-eg-fast`` maps. Smoothed over the next 0.2 s, a
+#: talker's peak is narrower and higher: the peak threshold at the best point of peak picking
+#: rises from 0.017-0.026 to 0.033-0.036 on simulated LOCATA-like and Kinovis-like scenes, and
+#: the trackers read at the fast map's thresholds took the smoothed maps' side lobes for
+#: talkers (Kinovis-like FA 44.6 / 39.3 %). Chosen between 1.2 and 1.35 on seeds 0-4 and 20-24
+#: of both scene kinds (BENCHMARKS.md, acoustic tracking).
+SMOOTH_MAP_PEAK_SCALE = 1.35
+
+#: The trackers' thresholds that :data:`SMOOTH_MAP_PEAK_SCALE` raises.
+_PEAK_FIELDS = ("activity_threshold", "birth_floor")
+
+#: :data:`FAST_MAP_OVERRIDES` for ``dprtf-eg-smooth`` maps, thresholds raised by
+#: :data:`SMOOTH_MAP_PEAK_SCALE`.
+SMOOTH_MAP_OVERRIDES: dict[str, dict[str, Any]] = {
+    tracker: {k: v * SMOOTH_MAP_PEAK_SCALE if k in _PEAK_FIELDS else v
+              for k, v in fields.items()}
+    for tracker, fields in FAST_MAP_OVERRIDES.items()
+}
+
+#: Seconds for which the trackers read a ``dprtf-eg-smooth`` map as evidence after the latest
+#: frame with enough features: the map itself holds its peaks through pauses (relaxing at 0.04
+#: a frame, ``SmoothEGConfig.output_silence_rate``), so the gate ends sooner than on the fast
+#: map (0.1 s gave Kinovis-like MD 38.6 / 39.0 %, 0.2 s FA 26.8 / 24.2 %; BENCHMARKS.md).
+SMOOTH_MAP_EVIDENCE_HOLD_S = 0.15
+
 #: ``{method: ("peaks-over-uniform" floor, {tracker: Config overrides})}``
 MAP_READINGS: dict[str, tuple[float, dict[str, dict[str, Any]]]] = {
     "dprtf-eg-fast": (FAST_MAP_UNIFORM_PEAK_FLOOR, FAST_MAP_OVERRIDES),
     "dprtf-eg-static": (FAST_MAP_UNIFORM_PEAK_FLOOR, FAST_MAP_OVERRIDES),
+    "dprtf-eg-smooth": (FAST_MAP_UNIFORM_PEAK_FLOOR * SMOOTH_MAP_PEAK_SCALE,
+                        SMOOTH_MAP_OVERRIDES),
 }
 
 #: ``{method: MapReading.evidence_hold_s}`` of the maps of :data:`MAP_READINGS` that have one.
 MAP_EVIDENCE_HOLD_S: dict[str, float] = {
     "dprtf-eg-fast": FAST_MAP_EVIDENCE_HOLD_S, "dprtf-eg-static": FAST_MAP_EVIDENCE_HOLD_S,
+    "dprtf-eg-smooth": SMOOTH_MAP_EVIDENCE_HOLD_S,
 }
 
 

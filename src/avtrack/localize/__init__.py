@@ -10,6 +10,11 @@ Algorithms (registered in :data:`LOCALIZERS`, CLI ``avtrack localize --method NA
 - ``dprtf-eg-fast`` -- :class:`~avtrack.localize.cgmm_eg.DPRTFEGFast`: DPRTF-EG whose peaks
   follow a moving talker: position weights with a larger EG step set the peaks' directions,
   the thesis weights their mass (not in the thesis; README, departures).
+- ``dprtf-eg-smooth`` (the default, :data:`DEFAULT_LOCALIZER`) --
+  :class:`~avtrack.localize.cgmm_eg.DPRTFEGSmooth`: the same map, each frame's read 0.2 s later
+  through a fixed-lag forward-backward smoother of the velocity layers
+  (:mod:`avtrack.localize.fixed_lag`), so that a small random walk keeps talkers close to each
+  other apart without trailing one who walks (not in the thesis).
 - ``dprtf-eg-static`` -- :class:`~avtrack.localize.cgmm_eg.DPRTFEGStatic`: the same for
   talkers who stay in place: a sharper still layer keeps neighbouring talkers apart and the
   map held through the gaps between words keeps quiet ones found (not in the thesis).
@@ -26,6 +31,7 @@ Candidate directions and predicted features: :mod:`avtrack.localize.grid`; peak 
 """
 
 from avtrack.localize.base import (
+    DEFAULT_LOCALIZER,
     LOCALIZERS,
     HeatMaps,
     Localizer,
@@ -33,19 +39,28 @@ from avtrack.localize.base import (
     make_localizer,
     register_localizer,
 )
-from avtrack.localize.cgmm_eg import DPRTFEG, DPRTFEGFast, EGConfig, FastEGConfig
+from avtrack.localize.cgmm_eg import (
+    DPRTFEG,
+    DPRTFEGFast,
+    DPRTFEGSmooth,
+    EGConfig,
+    FastEGConfig,
+    SmoothEGConfig,
+)
 from avtrack.localize.grid import DirectionGrid
 from avtrack.localize.peaks import find_peaks, local_maxima, peak_table
 from avtrack.localize.rem import DPRTFREM, PRPREM, PRPREMConfig, REMConfig
 from avtrack.localize.srp import SRPPHAT, SRPConfig
 
 __all__ = [
+    "DEFAULT_LOCALIZER",
     "DPRTFEG",
     "DPRTFREM",
     "LOCALIZERS",
     "PRPREM",
     "SRPPHAT",
     "DPRTFEGFast",
+    "DPRTFEGSmooth",
     "DirectionGrid",
     "EGConfig",
     "FastEGConfig",
@@ -54,6 +69,7 @@ __all__ = [
     "PRPREMConfig",
     "REMConfig",
     "SRPConfig",
+    "SmoothEGConfig",
     "find_peaks",
     "local_maxima",
     "localize",

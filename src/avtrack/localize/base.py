@@ -4,8 +4,11 @@ A :class:`Localizer` is an online object: :meth:`Localizer.process` takes the ne
 multichannel audio (any number of samples), runs the STFT front-end
 (:class:`avtrack.audio.stft.StreamingSTFT`) and returns the heat maps of the frames the block
 completes -- one value per candidate direction of its :class:`~avtrack.localize.grid.DirectionGrid`
-per STFT frame. Blocks of any size give exactly the frames of the whole signal processed at
-once. :meth:`Localizer.run` (and :func:`localize`) is the batch helper.
+per STFT frame. A localizer whose map of a frame also reads the frames after it (a fixed-lag
+smoother, :attr:`Localizer.latency_frames` > 0) returns each frame's map that many frames
+later, and :meth:`Localizer.flush` gives the maps still held back at the end of the signal.
+Blocks of any size give exactly the frames of the whole signal processed at once.
+:meth:`Localizer.run` (and :func:`localize`) is the batch helper.
 
 Implementations register under the name used by the CLI
 (``@register_localizer("dprtf-eg")``); :data:`LOCALIZERS` maps names to classes.
@@ -31,6 +34,12 @@ LOCALIZERS: Registry[type[Localizer]] = Registry("localizer")
 
 #: Class decorator registering a :class:`Localizer` subclass under a name.
 register_localizer = LOCALIZERS.register
+
+#: The localizer of the audio commands and APIs (``localize``, ``track-audio``, ``stream``,
+#: :func:`localize`, :class:`avtrack.stream.DOAStream`) when none is named: DPRTF-EG with
+#: position weights in velocity layers, read 0.2 s late through a fixed-lag smoother
+#: (:class:`avtrack.localize.cgmm_eg.DPRTFEGSmooth`).
+DEFAULT_LOCALIZER = "dprtf-eg-smooth"
 
 
 @dataclass(frozen=True, eq=False)
@@ -172,10 +181,23 @@ class Localizer(ABC):
         map keeps a memory of earlier frames say which frames updated it."""
         return np.ones(np.shape(n_observations), dtype=bool)
 
+    @property
+    def latency_frames(self) -> int:
+        """STFT frames by which a frame's heat map follows the frame itself: 0 for a causal
+        map; a fixed-lag smoother's lag otherwise (:meth:`flush` ends the signal)."""
+        return 0
+
     def reset(self) -> None:
         """Start a new signal: clears the STFT buffer and the algorithm's state."""
         self._stft.reset()
+        self._frames_out = 0
         self._reset_state()
+
+    def _heat_maps(self, weights: np.ndarray, n_obs: np.ndarray) -> HeatMaps:
+        """The next ``len(weights)`` frames' maps, numbered on from the frames given so far."""
+        frames = np.arange(self._frames_out, self._frames_out + weights.shape[0])
+        self._frames_out += weights.shape[0]
+        return HeatMaps(frames, self.stft_config.frame_times(frames), weights, n_obs)
 
     def process(self, block: np.ndarray) -> HeatMaps:
         """Feed the next samples; return the heat maps of the frames they complete.
@@ -188,7 +210,8 @@ class Localizer(ABC):
         Returns
         -------
         HeatMaps
-            ``n_frames`` = number of new STFT frames (may be 0).
+            The maps of the new STFT frames (may be none); with a :attr:`latency_frames` of
+            ``L``, of the frames up to ``L`` before the newest.
         """
         block = np.asarray(block)
         if block.ndim != 2 or block.shape[0] != self.n_channels:
@@ -196,16 +219,16 @@ class Localizer(ABC):
                 f"{type(self).__name__}.process: block must have shape ({self.n_channels}, "
                 f"n_samples) for array {self.array.name!r}, got {block.shape}"
             )
-        first = self._stft.frames_done
         spec = self._stft.process(block)  # validates dtype and finiteness
-        t_ = spec.shape[2]
-        frames = np.arange(first, first + t_)
-        if t_ == 0:
-            weights = np.zeros((0, self.grid.size))
-            n_obs = np.zeros(0, dtype=np.int64)
-        else:
-            weights, n_obs = self._process_stft(spec)
-        return HeatMaps(frames, self.stft_config.frame_times(frames), weights, n_obs)
+        if spec.shape[2] == 0:
+            return self._heat_maps(np.zeros((0, self.grid.size)), np.zeros(0, dtype=np.int64))
+        return self._heat_maps(*self._process_stft(spec))
+
+    def flush(self) -> HeatMaps:
+        """End the signal: the heat maps of the frames still held back (the last
+        :attr:`latency_frames` frames, read with the frames there are; none for a causal
+        map). :meth:`reset` before the next signal."""
+        return self._heat_maps(*self._flush())
 
     def run(self, signal: np.ndarray, block_size: int | None = None) -> HeatMaps:
         """Batch helper: reset, then process a whole signal ``(n_channels, n_samples)``.
@@ -215,7 +238,7 @@ class Localizer(ABC):
         self.reset()
         signal = np.asarray(signal)
         if block_size is None:
-            return self.process(signal)
+            return HeatMaps.concatenate([self.process(signal), self.flush()], self.grid.size)
         if isinstance(block_size, bool) or not isinstance(block_size, int) or block_size < 1:
             raise ValueError(f"run: block_size must be a positive integer, got {block_size!r}")
         if signal.ndim != 2:
@@ -226,7 +249,7 @@ class Localizer(ABC):
             self.process(signal[:, i : i + block_size])
             for i in range(0, signal.shape[1], block_size)
         ]
-        return HeatMaps.concatenate(parts, self.grid.size)
+        return HeatMaps.concatenate([*parts, self.flush()], self.grid.size)
 
     # -- implementation hooks -------------------------------------------------------------
     def _setup(self) -> None:  # noqa: B027 - optional hook
@@ -248,7 +271,15 @@ class Localizer(ABC):
         -------
         weights : ndarray (n_frames, n_candidates)
         n_observations : ndarray (n_frames,) int
+            Of the frames whose maps are ready: all ``n_frames`` of ``spec`` for a causal
+            map; with a :attr:`latency_frames` of ``L``, the frames held back before and up to
+            ``L`` before the newest.
         """
+
+    def _flush(self) -> tuple[np.ndarray, np.ndarray]:
+        """The maps ``(n, D)`` and feature counts ``(n,)`` of the frames still held back at
+        the end of the signal (none for a causal map)."""
+        return np.zeros((0, self.grid.size)), np.zeros(0, dtype=np.int64)
 
 
 def make_localizer(
@@ -269,7 +300,7 @@ def make_localizer(
 def localize(
     signal: np.ndarray,
     array: MicArray,
-    method: str = "dprtf-eg-fast",
+    method: str = DEFAULT_LOCALIZER,
     grid: DirectionGrid | None = None,
     config: Any = None,
     stft: STFTConfig | None = None,

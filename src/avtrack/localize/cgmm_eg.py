@@ -47,6 +47,7 @@ import numpy as np
 from avtrack.audio.dprtf import DPRTFConfig, DPRTFEstimator
 from avtrack.localize import _density_kernel
 from avtrack.localize.base import Localizer, register_localizer
+from avtrack.localize.fixed_lag import FixedLagSmoother
 from avtrack.localize.grid import DirectionGrid, dprtf_means, transfer_functions
 
 _TINY = 1e-300
@@ -410,6 +411,24 @@ def drift(weights: np.ndarray, grid: DirectionGrid, cells) -> np.ndarray:
     return (1.0 - np.abs(c)) * weights + np.abs(c) * src
 
 
+def _from_previous(y: np.ndarray, circular: bool) -> np.ndarray:
+    """``y`` of each cell's previous azimuth along the last axis (0 before the first on a grid
+    that does not wrap)."""
+    out = np.empty_like(y)
+    out[..., 1:] = y[..., :-1]
+    out[..., 0] = y[..., -1] if circular else 0.0
+    return out
+
+
+def _from_next(y: np.ndarray, circular: bool) -> np.ndarray:
+    """``y`` of each cell's next azimuth along the last axis (0 after the last on a grid that
+    does not wrap)."""
+    out = np.empty_like(y)
+    out[..., :-1] = y[..., 1:]
+    out[..., -1] = y[..., 0] if circular else 0.0
+    return out
+
+
 def eg_update_layers(
     layers: np.ndarray, ratios: np.ndarray, step: float, entropy: float
 ) -> np.ndarray:
@@ -517,6 +536,14 @@ class EGConfig:
         With the position weights: a peak of the map moves to the peak of ``w_t`` beside it
         when that lies within this many azimuth cells (:func:`snap_to_presence`; 0: the
         peaks stay at ``v_t``'s).
+    smoother_lag_s : float or None
+        None: the heat map of a frame is the filter's (causal). Seconds: with velocity layers,
+        the heat map of frame ``t`` is drawn from the layers smoothed over the frames up to
+        this long after it (:class:`~avtrack.localize.fixed_lag.FixedLagSmoother`), and is
+        given that much later (:attr:`Localizer.latency_frames`). Not in the thesis.
+    smoother_gap_s : float
+        With ``smoother_lag_s``: the smoothing does not reach back over a run of frames without
+        enough features this long or longer (a pause between talkers).
     min_features : int
         Frames with fewer features are treated as silent (relax to uniform); 20 by default,
         chosen on simulated rooms. The thesis relaxes only when there is no feature at all
@@ -546,6 +573,8 @@ class EGConfig:
     presence_reach: int = 3
     presence_by_peak: bool = False
     snap_reach: int = 0
+    smoother_lag_s: float | None = None
+    smoother_gap_s: float = 0.08
     dprtf: DPRTFConfig = field(default_factory=DPRTFConfig)
 
     def __post_init__(self) -> None:
@@ -589,6 +618,12 @@ class EGConfig:
             if self.still_smoothing > 1:
                 raise ValueError(
                     f"EGConfig: still_smoothing must be <= 1, got {self.still_smoothing!r}")
+        if self.smoother_lag_s is not None:
+            _positive("EGConfig", "smoother_lag_s", self.smoother_lag_s, allow_zero=True)
+            if self.position_step is None or self.position_velocities_deg_s is None:
+                raise ValueError("EGConfig: smoother_lag_s needs the position weights in velocity "
+                                 "layers (position_step and position_velocities_deg_s)")
+        _positive("EGConfig", "smoother_gap_s", self.smoother_gap_s)
         for name in ("silence_rate", "smoothing", "share", "position_smoothing", "position_share",
                      "velocity_switch"):
             _positive("EGConfig", name, getattr(self, name), allow_zero=True)
@@ -749,6 +784,29 @@ class DPRTFEG(CGMMLocalizer):
         #: position weights per velocity layer v_{u,t} (U, D)
         self.position_layers = np.full((u_, self.grid.size), 1.0 / (u_ * self.grid.size))
         self.position = self.weights.copy()  #: position weights v_t (D,)
+        #: the fixed-lag smoother of the layers, or None (a causal map)
+        self._smoother: FixedLagSmoother | None = None
+        # P^T's coefficients (U, 1, 1): the walk (None: none), the share of each cell kept by
+        # the drift's transpose and those taken from the previous / next azimuth (None: none)
+        cells = -self._drift_cells[:, None, None]  # the drift's transpose: the other way
+        self._circular = self.grid.circular
+        self._backward_coefficients = (
+            self._walk[:, :, None] if np.any(self._walk) else None,
+            1.0 - np.abs(cells),
+            np.where(cells > 0, cells, 0.0) if np.any(cells > 0) else None,
+            np.where(cells < 0, -cells, 0.0) if np.any(cells < 0) else None,
+        )
+        self._held_counts: list[int] = []  # feature counts of the frames the smoother holds
+        if self.config.smoother_lag_s is not None:
+            period = self.stft_config.frame_period_s
+            self._smoother = FixedLagSmoother(
+                self.latency_frames, max(round(self.config.smoother_gap_s / period), 1),
+                self._predict_layers_transposed)
+
+    @property
+    def latency_frames(self) -> int:
+        lag = self.config.smoother_lag_s
+        return 0 if lag is None else round(lag / self.stft_config.frame_period_s)
 
     def _update(self, weights: np.ndarray, ratios: np.ndarray) -> np.ndarray:
         cfg = self.config
@@ -772,20 +830,33 @@ class DPRTFEG(CGMMLocalizer):
             v = decay_to_uniform(v, cfg.position_share)
         return spatial_smoothing(v, self.grid, cfg.position_smoothing)
 
-    def _position_step(self, dens: np.ndarray | None) -> np.ndarray:
+    def _position_step(
+        self, dens: np.ndarray | None, presence: np.ndarray | None = None
+    ) -> np.ndarray:
         """``v_t = sum_u v_{u,t}`` from the velocity layers ``v_{u,t-1}`` ``(U, D)``: eqs.
         5.17-5.19 on the layers (:func:`eg_update_layers`) and a fixed share, then each
         layer's prediction (:func:`drift` at its velocity, the random walk) and the velocity
-        switch."""
+        switch. With the smoother, the updated layers, the prediction they came from and the
+        frame's ``w_t`` (``presence``) go to it."""
         cfg = self.config
-        layers = self.position_layers
-        n_cells = layers.size
+        predicted = self.position_layers
+        n_cells = predicted.size
         if dens is None:
-            layers = (1.0 - cfg.silence_rate) * layers + cfg.silence_rate / n_cells
+            layers = (1.0 - cfg.silence_rate) * predicted + cfg.silence_rate / n_cells
         else:
-            ratios = mean_ratios(dens, layers.sum(axis=0))
-            layers = eg_update_layers(layers, ratios, cfg.position_step, cfg.entropy)
+            ratios = mean_ratios(dens, predicted.sum(axis=0))
+            layers = eg_update_layers(predicted, ratios, cfg.position_step, cfg.entropy)
             layers = (1.0 - cfg.position_share) * layers + cfg.position_share / n_cells
+        if self._smoother is not None:
+            self._smoother.add(layers, predicted, dens is not None,
+                               (self.weights if presence is None else presence,))
+        self.position_layers = self._predict_layers(layers)
+        return self.position_layers.sum(axis=0)
+
+    def _predict_layers(self, layers: np.ndarray) -> np.ndarray:
+        """The prediction ``P`` of the velocity layers ``(U, D)``: each layer's :func:`drift`
+        at its velocity, the random walk, the velocity switch."""
+        cfg = self.config
         # each layer: drift at its velocity, then the random walk (spatial_smoothing of each
         # row, all rows at once)
         layers = drift(layers, self.grid, self._drift_cells)
@@ -802,24 +873,96 @@ class DPRTFEG(CGMMLocalizer):
                 layers = (1.0 - rho) * layers + rho * (layers.sum(axis=0) - layers) / (u_ - 1)
             else:  # spread by the layers' stationary shares
                 layers = (1.0 - rho) * layers + rho * self._switch_to * layers.sum(axis=0)
-        self.position_layers = layers
-        return layers.sum(axis=0)
+        return layers
+
+    def _predict_layers_transposed(self, x: np.ndarray) -> np.ndarray:
+        """``P^T x`` for :meth:`_predict_layers` on ``(..., U, D)`` arrays (the backward
+        recursion of :class:`~avtrack.localize.fixed_lag.FixedLagSmoother`): the switch's
+        transpose, the random walk (symmetric; its normalisation taken as ``1 / (1 + 2 c)``,
+        exact on a circular azimuth grid), the drift at the opposite velocity. The azimuth
+        neighbours are taken by slicing the ``(elevation, azimuth)`` layout of the grid."""
+        cfg = self.config
+        u_ = x.shape[-2]
+        rho = cfg.velocity_switch
+        if u_ > 1 and rho:
+            if self._switch_to is None:
+                total = x.sum(axis=-2, keepdims=True)
+                x = (1.0 - rho) * x + rho * (total - x) / (u_ - 1)
+            else:
+                x = (1.0 - rho) * x + rho * (self._switch_to * x).sum(axis=-2, keepdims=True)
+        grid = self.grid
+        y = x.reshape(*x.shape[:-1], grid.n_elevations, grid.n_azimuths)
+        walk, keep, from_prev, from_next = self._backward_coefficients
+        circular = self._circular
+        if walk is not None:
+            y = (y + walk * (_from_previous(y, circular) + _from_next(y, circular))) / (
+                1.0 + 2.0 * walk)
+        out = keep * y
+        if from_prev is not None:
+            out += from_prev * _from_previous(y, circular)
+        if from_next is not None:
+            out += from_next * _from_next(y, circular)
+        return out.reshape(x.shape)
 
     def _emit(self, weights: np.ndarray, dens: np.ndarray | None) -> np.ndarray:
         cfg = self.config
-        heat = weights
-        if cfg.position_step is not None:
-            v = self._position_step(dens) if cfg.position_velocities_deg_s is not None else (
-                self._position_walk(dens))
-            self.position = v
-            place = place_presence_by_peak if cfg.presence_by_peak else place_presence
-            heat = place(v, weights, self.grid, cfg.presence_reach)
-            heat = snap_to_presence(heat, v, weights, self.grid, cfg.snap_reach)
-        rate = cfg.output_silence_rate
+        if cfg.position_step is None:
+            return self._hold(weights, dens is not None)
+        if cfg.position_velocities_deg_s is None:
+            v = self._position_walk(dens)
+        else:
+            v = self._position_step(dens, weights)
+        self.position = v
+        if self._smoother is not None:
+            return v  # not the map: that comes from the smoother (_process_stft)
+        return self._hold(self._place(v, weights), dens is not None)
+
+    def _place(self, position: np.ndarray, presence: np.ndarray) -> np.ndarray:
+        """The heat map of position weights ``v`` and thesis weights ``w`` (both ``(D,)``):
+        ``v``'s peaks carrying ``w``'s local mass."""
+        cfg = self.config
+        place = place_presence_by_peak if cfg.presence_by_peak else place_presence
+        heat = place(position, presence, self.grid, cfg.presence_reach)
+        return snap_to_presence(heat, position, presence, self.grid, cfg.snap_reach)
+
+    def _hold(self, heat: np.ndarray, evidence: bool) -> np.ndarray:
+        """The map of a frame from its ``heat`` ``(D,)``: itself, or with
+        ``output_silence_rate`` and no evidence, the last map relaxed towards uniform."""
+        rate = self.config.output_silence_rate
         if rate is None:
             return heat
-        self._heat = heat if dens is not None else decay_to_uniform(self._heat, rate)
+        self._heat = heat if evidence else decay_to_uniform(self._heat, rate)
         return self._heat
+
+    def _process_stft(self, spec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self._smoother is None:
+            return super()._process_stft(spec)
+        _, n_obs = super()._process_stft(spec)  # the filter; its frames go to the smoother
+        self._held_counts.extend(n_obs.tolist())
+        return self._smoothed(final=False)
+
+    def _flush(self) -> tuple[np.ndarray, np.ndarray]:
+        if self._smoother is None:
+            return super()._flush()
+        return self._smoothed(final=True)
+
+    def _smoothed(self, final: bool) -> tuple[np.ndarray, np.ndarray]:
+        """The maps ``(n, D)`` and feature counts ``(n,)`` of the frames the smoother gives
+        now (:meth:`FixedLagSmoother.ready`); with ``keep_presence``, their ``w_t`` in
+        :attr:`presence`."""
+        assert self._smoother is not None
+        layers, extra = self._smoother.ready(final)
+        n = len(extra)
+        counts = np.asarray(self._held_counts[:n], dtype=np.int64)
+        del self._held_counts[:n]
+        evidence = self.evidence(counts)
+        heat = np.empty((n, self.grid.size))
+        for t in range(n):
+            heat[t] = self._hold(self._place(layers[t].sum(axis=0), extra[t][0]), evidence[t])
+        if self.keep_presence:
+            self.presence = (np.asarray([e[0] for e in extra]) if n
+                             else np.zeros((0, self.grid.size)))
+        return heat, counts
 
 
 @dataclass(frozen=True)
@@ -889,3 +1032,34 @@ class DPRTFEGStatic(DPRTFEGFast):
     thesis."""
 
     Config: ClassVar[type] = StaticEGConfig
+
+
+@dataclass(frozen=True)
+class SmoothEGConfig(FastEGConfig):
+    """:class:`FastEGConfig` read 0.2 s late through a fixed-lag smoother
+    (``smoother_lag_s``; the smoothing stops at pauses of 80 ms or more, ``smoother_gap_s``),
+    with the zero-velocity layer's random walk at 0.03 a cell a frame (``still_smoothing``)
+    and, in frames without enough features, the map relaxing from the last map with evidence
+    at 0.04 a frame (``output_silence_rate``; a peak halves in 0.14 s, within the 0.2 s
+    hangover of a speech activity detector).
+
+    The fast map's walk of 0.07 lets a standing talker's mass drift towards a neighbour (real
+    4-mic recordings, talkers 45 degrees apart: peaks 4-8 degrees towards the other); a
+    smaller walk keeps them apart but trails a talker who walks, since the filter's map of a
+    frame knows only the frames before it. Read 0.2 s late, the map of a frame also knows
+    where the talker went next, and the small walk no longer trails (BENCHMARKS.md, acoustic
+    localization and tracking: real recordings and simulated LOCATA-like scenes).
+    """
+
+    still_smoothing: float | None = 0.03
+    output_silence_rate: float | None = 0.04
+    smoother_lag_s: float | None = 0.2
+
+
+@register_localizer("dprtf-eg-smooth")
+class DPRTFEGSmooth(DPRTFEGFast):
+    """:class:`DPRTFEGFast` smoothed over the next 0.2 s: each frame's heat map comes 0.2 s
+    after the frame (:attr:`latency_frames`; :meth:`flush` gives the last ones). See
+    :class:`SmoothEGConfig` and :mod:`avtrack.localize.fixed_lag`. Not in the thesis."""
+
+    Config: ClassVar[type] = SmoothEGConfig

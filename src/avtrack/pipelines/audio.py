@@ -92,9 +92,11 @@ def localize_recording(
     n_frames = with_features = n_active = 0
     elapsed = 0.0
     done = 0
-    for block in recording.blocks():
+    blocks = recording.blocks()
+    while True:
+        block = next(blocks, None)
         t0 = time.perf_counter()
-        heat = localizer.process(block)
+        heat = localizer.flush() if block is None else localizer.process(block)
         table = peak_table(heat, localizer.grid, threshold, floor, max_peaks,
                            localizer.profile_reduce)
         elapsed += time.perf_counter() - t0
@@ -107,6 +109,8 @@ def localize_recording(
             tables.append(table)
         if keep_heat:
             heats.append(heat)
+        if block is None:  # the maps a smoothing localizer still held
+            break
         done += block.shape[1]
         if progress is not None:
             progress(done / FS)
@@ -178,9 +182,11 @@ def track_recording(
     n_active = 0
     elapsed = 0.0
     done = 0
-    for block in recording.blocks():
+    blocks = recording.blocks()
+    while True:
+        block = next(blocks, None)
         t0 = time.perf_counter()
-        outs = stream.push(block)
+        outs = stream.finish() if block is None else stream.push(block)
         elapsed += time.perf_counter() - t0
         frames = np.array([o.frame for o in outs], dtype=np.int64)
         t = np.array([o.time_s for o in outs], dtype=float)
@@ -192,6 +198,8 @@ def track_recording(
             sink(table)
         if keep_table:
             tables.append(table)
+        if block is None:  # the frames a smoothing localizer still held
+            break
         done += block.shape[1]
         if progress is not None:
             progress(done / FS)

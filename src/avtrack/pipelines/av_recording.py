@@ -208,16 +208,19 @@ def localize_for_persons(
     for loc in locs:
         loc.reset()
     with stage(f"localizing {recording.info.samples / FS:.1f} s"):
-        for block in recording.blocks():
-            parts = [loc.process(block) for loc in locs]
-            k = len(parts[0])
+        blocks = recording.blocks()
+        while True:  # the blocks, then what a smoothing localizer still held
+            block = next(blocks, None)
+            parts = [loc.flush() if block is None else loc.process(block) for loc in locs]
             if calib is not None:
-                calib[done : done + k] = parts[-1].weights
-                if len(locs) == 1 and k:  # the thesis weights of the same run
+                calib[parts[-1].frames] = parts[-1].weights
+                if len(locs) == 1 and len(parts[0]):  # the thesis weights of the same run
                     parts[0] = replace(parts[0], weights=locs[0].presence)
-            weights[done : done + k] = parts[0].weights
-            n_obs[done : done + k] = parts[0].n_observations
-            done += k
+            weights[parts[0].frames] = parts[0].weights
+            n_obs[parts[0].frames] = parts[0].n_observations
+            done += len(parts[0])
+            if block is None:
+                break
             if level is not None:
                 level.add(block[0])
     if done != n:

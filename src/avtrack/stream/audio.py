@@ -31,7 +31,7 @@ from avtrack.doa.base import (
     make_tracker,
     map_reading,
 )
-from avtrack.localize import DirectionGrid, make_localizer
+from avtrack.localize import DEFAULT_LOCALIZER, DirectionGrid, HeatMaps, make_localizer
 from avtrack.localize.grid import azimuth_profile
 
 
@@ -63,7 +63,8 @@ class DOAStream:
     array : MicArray
         The microphone array; channel ``k`` of every block is microphone ``k``.
     method : str
-        Localizer (``avtrack.localize.LOCALIZERS``; default ``"dprtf-eg-fast"``).
+        Localizer (``avtrack.localize.LOCALIZERS``; default
+        :data:`~avtrack.localize.base.DEFAULT_LOCALIZER`, ``"dprtf-eg-smooth"``).
     tracker : str
         DOA tracker (``"gauss"`` or ``"vonmises"``; default ``"vonmises"``).
     step : int
@@ -99,7 +100,7 @@ class DOAStream:
         self,
         array: MicArray,
         *,
-        method: str = "dprtf-eg-fast",
+        method: str = DEFAULT_LOCALIZER,
         tracker: str = "vonmises",
         step: int = 4,
         observations: str | None = None,
@@ -158,9 +159,11 @@ class DOAStream:
     @property
     def latency_s(self) -> float:
         """Worst-case delay from a sample's arrival to the tracker frame that includes it:
-        one STFT window plus one tracker block."""
+        one STFT window, the localizer's own lag (a smoothing map,
+        :attr:`~avtrack.localize.base.Localizer.latency_frames`) and one tracker block."""
         cfg = self.localizer.stft_config
-        return (cfg.win_len + (self.step - 1) * cfg.hop) / cfg.fs
+        lag = self.localizer.latency_frames + self.step - 1
+        return (cfg.win_len + lag * cfg.hop) / cfg.fs
 
     def reset(self) -> None:
         """Start a new stream."""
@@ -189,6 +192,17 @@ class DOAStream:
         """
         heat = self.localizer.process(block)  # validates the block
         self.samples_in += int(np.shape(block)[1])
+        return self._track(heat)
+
+    def finish(self) -> list[DOAStreamFrame]:
+        """End the stream: the tracker frames of the maps the localizer still held (a
+        smoothing map's last :attr:`~avtrack.localize.base.Localizer.latency_frames`; none
+        otherwise). A last part-filled tracker block is dropped, as in :meth:`push`.
+        :meth:`reset` before the next stream."""
+        return self._track(self.localizer.flush())
+
+    def _track(self, heat: HeatMaps) -> list[DOAStreamFrame]:
+        """The tracker frames that ``heat``'s frames complete."""
         if len(heat) == 0:
             return []
         w, _ = azimuth_profile(heat.weights, self.grid, self.localizer.profile_reduce)
