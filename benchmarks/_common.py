@@ -49,11 +49,10 @@ def overrides(items: list[str]) -> dict:
     ``dprtf.FIELD`` too)."""
     import dataclasses
 
-    from avtrack.localize.cgmm_eg import EGConfig, FastEGConfig
-    from avtrack.localize.rem import PRPREMConfig, REMConfig
+    from avtrack.localize import LOCALIZERS
 
-    defaults = {"dprtf-eg": EGConfig, "dprtf-eg-fast": FastEGConfig, "dprtf-rem": REMConfig,
-                "prp-rem": PRPREMConfig}
+    defaults = {name: cls.Config for name, cls in LOCALIZERS.items()
+                if dataclasses.is_dataclass(cls.Config)}
     changes: dict[str, dict[str, dict]] = {}
     for item in items:
         method, sep, rest = item.partition(":")
