@@ -337,7 +337,8 @@ def test_position_weights_follow_eqs_5_17_to_5_19_with_their_own_step():
 
 def _synthetic_lag(config):
     """Lag (frames) of the heat map's argmax behind a talker walking at 30 deg/s, from
-    CGMM densities drawn around the talker's direction (8 ms frames, 5 degree grid)."""
+    CGMM densities drawn around the talker's direction (8 ms frames, 5 degree grid). A map
+    with ``smoother_lag_s`` is read as its frames' smoothed maps once the signal has ended."""
     rng = np.random.default_rng(0)
     loc = _eg(config)
     loc.grid = DirectionGrid.azimuths()
@@ -346,35 +347,15 @@ def _synthetic_lag(config):
     n = 600
     truth = -60.0 + 0.24 * np.arange(n)  # 30 deg/s
     w = loc.weights
-    peak = np.empty(n)
+    heat = np.empty((n, az.size))
     for t in range(n):
         a = truth[t] + 5.0 * rng.standard_normal(40)  # 40 features scattered around the talker
         dens = np.exp(-0.5 * ((az[None, :] - a[:, None]) / 15.0) ** 2) + 1e-3
-        w, heat = loc._frame(w, dens)
-        peak[t] = az[np.argmax(heat)]
-    shifts = np.arange(0, 80)
-    err = [np.mean(np.abs(peak[200:] - truth[200 - s : n - s])) for s in shifts]
-    return int(shifts[np.argmin(err)])
-
-
-def _synthetic_lag_read_late(config):
-    """:func:`_synthetic_lag` of a map with ``smoother_lag_s``: the frames' smoothed maps once
-    the signal has ended."""
-    rng = np.random.default_rng(0)
-    loc = _eg(config)
-    loc.grid = DirectionGrid.azimuths()
-    loc._reset_state()
-    az = loc.grid.azimuth_deg
-    n = 600
-    truth = -60.0 + 0.24 * np.arange(n)  # 30 deg/s
-    w = loc.weights
-    for t in range(n):
-        a = truth[t] + 5.0 * rng.standard_normal(40)
-        dens = np.exp(-0.5 * ((az[None, :] - a[:, None]) / 15.0) ** 2) + 1e-3
-        w, _ = loc._frame(w, dens)
-    loc._held_counts = [40] * n  # as _process_stft records them
-    heat, counts = loc._smoothed(final=True)
-    assert heat.shape == (n, az.size) and np.all(counts == 40)
+        w, heat[t] = loc._frame(w, dens)
+    if config.smoother_lag_s is not None:
+        loc._held_counts = [40] * n  # as _process_stft records them
+        heat, counts = loc._smoothed(final=True)
+        assert heat.shape == (n, az.size) and np.all(counts == 40)
     peak = az[np.argmax(heat, axis=1)]
     shifts = np.arange(0, 80)
     err = [np.mean(np.abs(peak[200:] - truth[200 - s : n - s])) for s in shifts]
@@ -387,7 +368,7 @@ def test_the_smoother_shortens_the_trail_of_a_small_still_walk():
     layers = dict(position_step=0.3, position_smoothing=0.07, still_smoothing=0.03,
                   position_velocities_deg_s=(-60.0, -30.0, 0.0, 30.0, 60.0))
     assert _synthetic_lag(EGConfig(**layers)) > 25
-    assert _synthetic_lag_read_late(EGConfig(**layers, smoother_lag_s=0.2)) < 20
+    assert _synthetic_lag(EGConfig(**layers, smoother_lag_s=0.2)) < 20
     with pytest.raises(ValueError, match="smoother_lag_s needs the position weights"):
         EGConfig(smoother_lag_s=0.2)
     with pytest.raises(ValueError, match="smoother_gap_s must be a finite number > 0"):
