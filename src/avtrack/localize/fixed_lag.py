@@ -8,8 +8,8 @@ applied). Read as a hidden Markov model whose likelihoods are those factors, the
 frame ``t`` uses the frames up to ``t`` only, so a talker who moves is trailed, and a small
 random walk, which keeps two standing talkers apart, trails further. The smoothed weights of
 frame ``t`` given the frames up to ``t + L`` (the backward recursion of the forward-backward
-algorithm, fixed-lag form: S. Särkkä, *Bayesian Filtering and Smoothing*, 2013, ch. 8; not in
-the thesis) are ``alpha_t * beta_t`` with
+algorithm, L. R. Rabiner, "A tutorial on hidden Markov models", Proc. IEEE 77(2), 1989, eqs.
+24-25, run over a fixed lag; not in the thesis) are ``alpha_t * beta_t`` with
 
 ``beta_{t+L} = 1``, ``beta_s = P^T (r_{s+1} * beta_{s+1})`` for ``s = t+L-1, ..., t``,
 
