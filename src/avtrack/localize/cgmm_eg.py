@@ -950,7 +950,8 @@ class DPRTFEG(CGMMLocalizer):
         """The maps ``(n, D)`` and feature counts ``(n,)`` of the frames the smoother gives
         now (:meth:`FixedLagSmoother.ready`); with ``keep_presence``, their ``w_t`` in
         :attr:`presence`."""
-        assert self._smoother is not None
+        if self._smoother is None:
+            raise RuntimeError(f"{type(self).__name__}: no smoother (smoother_lag_s is None)")
         layers, extra = self._smoother.ready(final)
         n = len(extra)
         counts = np.asarray(self._held_counts[:n], dtype=np.int64)
