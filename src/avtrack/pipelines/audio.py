@@ -9,7 +9,7 @@ so memory stays flat in the recording's length; tracking goes through
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -57,6 +57,14 @@ class LocalizeRun:
     heat: HeatMaps | None
 
 
+def blocks_then_end(recording: ArrayRecording) -> Iterator[np.ndarray | None]:
+    """The recording's blocks, then None: the end, where a localizer that reads each frame
+    some frames late (:attr:`~avtrack.localize.base.Localizer.latency_frames`) gives the maps
+    it still holds (``flush``)."""
+    yield from recording.blocks()
+    yield None
+
+
 def localize_recording(
     recording: ArrayRecording,
     localizer: Localizer,
@@ -92,9 +100,7 @@ def localize_recording(
     n_frames = with_features = n_active = 0
     elapsed = 0.0
     done = 0
-    blocks = recording.blocks()
-    while True:
-        block = next(blocks, None)
+    for block in blocks_then_end(recording):
         t0 = time.perf_counter()
         heat = localizer.flush() if block is None else localizer.process(block)
         table = peak_table(heat, localizer.grid, threshold, floor, max_peaks,
@@ -182,9 +188,7 @@ def track_recording(
     n_active = 0
     elapsed = 0.0
     done = 0
-    blocks = recording.blocks()
-    while True:
-        block = next(blocks, None)
+    for block in blocks_then_end(recording):
         t0 = time.perf_counter()
         outs = stream.finish() if block is None else stream.push(block)
         elapsed += time.perf_counter() - t0

@@ -50,6 +50,7 @@ from avtrack.io.video import VideoInfo, iter_frames, probe_video
 from avtrack.localize import HeatMaps, make_localizer
 from avtrack.localize.cgmm_eg import CGMMLocalizer
 from avtrack.localize.grid import DirectionGrid, line_axis
+from avtrack.pipelines.audio import blocks_then_end
 from avtrack.pipelines.av import AVRun, beamform_voices
 from avtrack.pipelines.mot import (
     Stage,
@@ -208,9 +209,7 @@ def localize_for_persons(
     for loc in locs:
         loc.reset()
     with stage(f"localizing {recording.info.samples / FS:.1f} s"):
-        blocks = recording.blocks()
-        while True:  # the blocks, then what a smoothing localizer still held
-            block = next(blocks, None)
+        for block in blocks_then_end(recording):
             parts = [loc.flush() if block is None else loc.process(block) for loc in locs]
             if calib is not None:
                 calib[parts[-1].frames] = parts[-1].weights
