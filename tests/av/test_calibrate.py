@@ -24,11 +24,14 @@ def _true_camera(yaw=20.0, pitch=0.0, hfov=60.0, position=(0.0, 0.0, 0.05)):
 
 
 def _recording(camera, n_frames=400, outliers=0.0, seed=0, elevation=False, noise=1.0,
-               sway_deg=6.0, turns=(0, 1, 2), line=None, height=(0.1, 0.45, -0.05)):
+               sway_deg=6.0, turns=(0, 1, 2), line=None, height=(0.1, 0.45, -0.05),
+               origin=(0.0, 0.0)):
     """Three people in front of the camera taking turns (one talker a frame, ``turns`` in
     order, 40 frames each), in the array's frame, swaying ``sway_deg``; a fraction
     ``outliers`` of the frames hears a random direction instead. ``line``: the axis of a
-    line of microphones, which hears each talker at :func:`heard_azimuth`."""
+    line of microphones, which hears each talker at :func:`heard_azimuth`. The people stand
+    around ``origin`` (x, y: the array's centre by default, the camera's place for a camera
+    away from the array) and are heard from the array."""
     rng = np.random.default_rng(seed)
     yaw = camera.yaw_deg
     az = yaw + np.array([-24.0, -8.0, 19.0])
@@ -38,8 +41,8 @@ def _recording(camera, n_frames=400, outliers=0.0, seed=0, elevation=False, nois
     for t in range(n_frames):
         # people sway a little, the talker changes every 40 frames
         a = az + sway_deg * np.sin(0.02 * t + np.arange(3))
-        pts = np.column_stack([dist * np.cos(np.deg2rad(a)), dist * np.sin(np.deg2rad(a)),
-                               height])
+        pts = np.column_stack([origin[0] + dist * np.cos(np.deg2rad(a)),
+                               origin[1] + dist * np.sin(np.deg2rad(a)), height])
         b = camera.head_box(pts)
         for i in range(3):
             if np.all(np.isfinite(b[i])):
@@ -84,6 +87,21 @@ def test_fit_hears_the_talkers_as_a_line_of_microphones_does():
     assert abs(fit.camera.fx / cam.fx - 1.0) < 0.03 and abs(fit.camera.yaw_deg) < 1.0
     flat = fit_camera(replace(ev, line_axis=None), position=cam.position, pitch_deg=20.0)
     assert flat.camera.fx / cam.fx - 1.0 > 0.1  # the sounds seem closer together (+14 %)
+
+
+def test_fit_places_a_camera_away_from_the_array_at_the_position_given():
+    """A camera 2.3 m from the array and 1.4 m above it, looking down at people 1.8-2.4 m in
+    front of it (as AV16.3's camera 1): at its measured position the fit recovers its yaw
+    and focal length; taken to stand at the array, it does not."""
+    pos = (-1.6, 1.6, 1.4)
+    cam = _true_camera(yaw=-25.0, pitch=-17.0, hfov=50.0, position=pos)
+    ev = _recording(cam, origin=pos[:2], height=(0.45, 0.6, 0.4), noise=0.5)
+    fit = fit_camera(ev, position=np.array(pos), pitch_deg=-17.0)
+    assert abs(fit.camera.yaw_deg + 25.0) < 1.0
+    assert abs(fit.camera.fx / cam.fx - 1.0) < 0.05
+    assert np.allclose(fit.camera.position, pos)
+    centre = fit_camera(ev, pitch_deg=-17.0)  # yaw 49 deg measured
+    assert abs(centre.camera.yaw_deg + 25.0) > 10.0
 
 
 def test_fit_measures_the_pitch_from_audio_elevations():

@@ -166,3 +166,30 @@ def test_generic_path_on_sequence_30_from_its_video(shared_data, tmp_path):
     shown = persons.in_view & np.all(np.isfinite(persons.pixels), axis=1)
     est = [persons.pixels[shown & (persons.frames == f)] for f in seq.frames]
     assert ospa_sequence(est, av163_truth(seq), 50.0, 2)[:, 0].mean() <= 15.0
+
+
+@pytest.mark.slow
+def test_camera_auto_at_the_measured_position_agrees_with_the_calibration(shared_data,
+                                                                         tmp_path):
+    """Sequence 30 camera 1 through the generic path with --camera auto, the camera's
+    position given (it stands 2.3 m from the array and 1.4 m above it): yaw within 5 degrees
+    of the dataset's calibration and focal length within 10 % of its fx (1.2 deg and +5.6 %
+    measured; taken to stand at the array it comes out 40 deg off)."""
+    pytest.importorskip("yuface", reason="the default face detector needs avtrack[detectors]")
+    from avtrack.io.camera import read_camera_file
+
+    folder = shared_data / "av16.3"
+    video = folder / "seq30-2p-1101_cam1_divx_audio.avi"
+    if not video.is_file():
+        pytest.skip(f"{video} not in the shared data")
+    conv, out = tmp_path / "av30", tmp_path / "auto"
+    assert main(["convert", "av16.3", str(folder), "--seq", "30", "--cam", "1", "-o",
+                 str(conv), "-q"]) == 0
+    true = read_camera_file(conv / "camera.yaml")
+    assert main(["track-av", "--video", str(video), "--doa", str(conv / "doa.csv"),
+                 "--camera", "auto",
+                 "--camera-position=" + ",".join(f"{v:.2f}" for v in true.position),
+                 "-o", str(out), "-q", "--no-report"]) == 0
+    est = read_camera_file(out / "CAMERA.yaml")
+    assert abs((est.yaw_deg - true.yaw_deg + 180.0) % 360.0 - 180.0) < 5.0
+    assert abs(est.fx / true.fx - 1.0) < 0.1

@@ -388,3 +388,34 @@ def test_track_av_camera_auto_writes_the_estimated_camera(main, tmp_path, capsys
                  "--doa", str(still / "gt" / "doa.csv"), "--camera", "auto", "--image-size",
                  "640x480", "-o", str(tmp_path / "still")]) == 2
     assert "too little evidence" in capsys.readouterr().err
+
+
+def test_track_av_camera_position_is_for_an_estimated_camera(main, tmp_path, capsys):
+    """--camera-position places the camera --camera auto estimates: with a camera file (which
+    has its own position) or as anything but three numbers it is an error."""
+    scene_dir, camera = _recording_files(tmp_path, walkout()[0])
+    base = ["track-av", "--detections", str(scene_dir / "detections.txt"), "--fps", "25",
+            "--doa", str(scene_dir / "gt" / "doa.csv")]
+    cases = [
+        (["--camera", str(camera), "--camera-position", "0,0,0"], "is for --camera auto"),
+        (["--camera", "auto", "--image-size", "640x480", "--camera-position", "1,2"],
+         "three finite numbers"),
+        (["--camera", "auto", "--image-size", "640x480", "--camera-position", "1,x,2"],
+         "expected X,Y,Z in metres"),
+        (["--camera", "auto", "--image-size", "640x480", "--camera-position", "1,nan,2"],
+         "three finite numbers"),
+    ]
+    for i, (extra, msg) in enumerate(cases):
+        assert main([*base, *extra, "-o", str(tmp_path / f"o{i}")]) == 2
+        assert msg in capsys.readouterr().err
+    # given where the scene's camera stands, the estimate is placed there
+    from avtrack.io.camera import read_camera_file
+
+    true = read_camera_file(camera)
+    out = tmp_path / "at"
+    assert main([*base, "--camera", "auto", "--image-size", "640x480",
+                 "--camera-position=" + ",".join(f"{v:.4f}" for v in true.position),
+                 "-o", str(out), "-q"]) == 0
+    est = read_camera_file(out / "CAMERA.yaml")
+    assert np.allclose(est.position, true.position, atol=1e-4)
+    assert abs(est.yaw_deg - true.yaw_deg) < 3.0 and abs(est.fx / true.fx - 1.0) < 0.1

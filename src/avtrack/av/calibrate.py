@@ -29,11 +29,11 @@ out of view, an echo): those are the outliers.
 Fit.
 
 1. Exhaustive search (camera at the array's centre, where the yaw only adds to every
-   predicted azimuth): yaw every degree, focal lengths of horizontal fields of view 20-150
-   degrees; the score of a hypothesis is the number of audio directions within
-   :data:`MATCH_DEG` of a box of their frame, each shared among the boxes it matches; a
-   hypothesis whose matched directions span no more than two match windows measures no focal
-   length and is passed over.
+   predicted azimuth, or at a position the user measured): yaw every degree, focal lengths of
+   horizontal fields of view 20-150 degrees; the score of a hypothesis is the number of audio
+   directions within :data:`MATCH_DEG` of a box of their frame, each shared among the boxes
+   it matches; a hypothesis whose matched directions span no more than two match windows
+   measures no focal length and is passed over.
 2. Least squares with a Cauchy loss from the best hypothesis (``scipy.optimize.least_squares``),
    each audio direction re-associated with its nearest box between rounds; then the inliers
    (residual within 3 robust standard deviations) refitted with a plain quadratic loss.
@@ -246,9 +246,10 @@ def _nearest(ev: CameraEvidence, resid: np.ndarray) -> np.ndarray:
     return order[starts]
 
 
-def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
+def _search(ev: CameraEvidence, pitch_deg: float,
+            position: np.ndarray | None = None) -> tuple[float, float, int]:
     """Yaw and focal length of the hypothesis that explains the most audio directions, and its
-    number of matched audio directions (camera at the array's centre).
+    number of matched audio directions (camera at ``position``, default the array's centre).
 
     A direction matches when a box of its frame is predicted within :data:`MATCH_DEG`; it
     counts ``1 / k`` when ``k`` boxes of its frame are: a camera of a tiny field of view that
@@ -263,16 +264,24 @@ def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
                                    np.cos(np.radians(first)).sum())) if first.size else 0.0
     heard = wrap_azimuth(first - mean)
     yaws = np.arange(-180.0, 180.0, 1.0)
+    pos = np.zeros(3) if position is None else position
+    at_centre = not np.any(pos)
     best = (0.0, 1.0, -1)
     best_score = -np.inf
     for hfov in np.arange(20.0, 151.0, 5.0):
         f = 0.5 * ev.width / math.tan(math.radians(hfov) / 2.0)
-        g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
-        off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
         hits, scores = [], []
         for y0 in range(0, yaws.size, _YAW_CHUNK):  # (pairs x yaws arrays, a slice at a time)
-            yaw = yaws[None, y0 : y0 + _YAW_CHUNK]
-            hit = np.abs(wrap_azimuth(off[:, None] - yaw)) < MATCH_DEG
+            yaw = yaws[y0 : y0 + _YAW_CHUNK]
+            if at_centre:  # the yaw only adds to every predicted azimuth
+                if y0 == 0:
+                    g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
+                    off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
+                resid = wrap_azimuth(off[:, None] - yaw[None, :])
+            else:
+                resid = wrap_azimuth(ev.azimuth_deg[:, None]
+                                     - _azimuths_at_yaws(ev, yaw, pitch_deg, f, pos))
+            hit = np.abs(resid) < MATCH_DEG
             k = np.add.reduceat(hit.view(np.uint8), starts, axis=0, dtype=np.int64)
             matched = k > 0
             hits.append(matched.sum(axis=0))
@@ -288,6 +297,25 @@ def _search(ev: CameraEvidence, pitch_deg: float) -> tuple[float, float, int]:
             best_score = float(score[j])
             best = (float(yaws[j]), f, int(np.concatenate(hits)[j]))
     return best
+
+
+def _azimuths_at_yaws(ev: CameraEvidence, yaws: np.ndarray, pitch_deg: float,
+                      focal_px: float, position: np.ndarray) -> np.ndarray:
+    """Predicted azimuth ``(P, Y)`` (degrees) of each pair's box for a camera at ``position``
+    turned to each of ``yaws`` ``(Y,)``: the box's point in the frame of the camera at yaw 0,
+    ``B = R(0, pitch)^T X_c``, turned about the vertical, ``A = R_z(yaw) B + p``."""
+    s = HEAD_HEIGHT_M / np.maximum(ev.h, 1.0)
+    xc = np.column_stack([s * (ev.u - 0.5 * ev.width), s * (ev.v - 0.5 * ev.height),
+                          s * focal_px])
+    b = xc @ _rotation(0.0, pitch_deg)  # (P, 3)
+    c, sn = np.cos(np.radians(yaws))[None, :], np.sin(np.radians(yaws))[None, :]
+    ax = b[:, :1] * c - b[:, 1:2] * sn + position[0]
+    ay = b[:, :1] * sn + b[:, 1:2] * c + position[1]
+    if ev.line_axis is None:
+        return np.degrees(np.arctan2(ay, ax))
+    az = np.broadcast_to(b[:, 2:3] + position[2], ax.shape)
+    pts = np.stack([ax, ay, az], axis=-1).reshape(-1, 3)
+    return heard_azimuth(pts, ev.line_axis).reshape(ax.shape)
 
 
 @dataclass(frozen=True)
@@ -389,8 +417,7 @@ def fit_camera(
         Seed of the bootstrap.
     start : PinholeCamera, optional
         Start the fit from this camera's yaw and focal length (and ``pitch_deg``) instead of
-        the search over hypotheses, which assumes the camera at the array's centre: to check
-        a given camera placed away from the array.
+        the search over hypotheses: to check a given camera.
 
     Raises
     ------
@@ -405,7 +432,7 @@ def fit_camera(
     if ev.n_pairs == 0:
         raise ValueError(_too_little(0, ev.n_directions, min_matches))
     if start is None:
-        yaw0, f0, score = _search(ev, pitch_deg)
+        yaw0, f0, score = _search(ev, pitch_deg, pos)
     else:
         yaw0, f0 = float(start.yaw_deg), float(start.fx)
         at = replace(start, position=pos, pitch_deg=pitch_deg)

@@ -116,6 +116,8 @@ elevations) from the people seen talking, prints it with its uncertainty and wri
 OUT_DIR/CAMERA.yaml; a camera file given is checked against the recording the same way
 (a warning names the likely mistake; --strict: exit 2):
   avtrack track-av --video rec.mp4 --audio rec.wav --array nao4 --camera auto -o out
+The camera is taken to stand at the array unless --camera-position gives where it is:
+  avtrack track-av --video v.mp4 --doa doa.csv --camera auto --camera-position=-1.6,1.6,1.4 -o out
 
 The --config YAML holds PersonConfig fields with --model direction (the visual tracker's under
 "visual:"), e.g.:
@@ -169,7 +171,13 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
                      "below), checked against the recording (a warning names a likely mistake); "
                      "'auto': estimate the camera's yaw, pitch (when the DOA CSV has "
                      "elevations) and focal length from the people seen talking, the camera "
-                     "at the array's centre, and write it as OUT_DIR/CAMERA.yaml")
+                     "at the array's centre (or at --camera-position), and write it as "
+                     "OUT_DIR/CAMERA.yaml")
+    rec.add_argument("--camera-position", metavar="X,Y,Z",
+                     help="--camera auto: where the camera's lens is in the array's frame, "
+                     "metres (x towards azimuth 0, z up), for a camera that does not stand "
+                     "at the array; a first value below 0 goes after '=': "
+                     "--camera-position=-1.6,1.6,1.4")
     rec.add_argument("--strict", action="store_true",
                      help="a camera file that disagrees with the recording is an error (exit "
                      "2), not a warning")
@@ -290,7 +298,7 @@ def load_person_config(path: Path | None, threshold: float | None) -> PersonConf
 
 #: Options that describe a recording of one's own (no SCENE_DIR).
 OWN_RECORDING = ("video", "audio", "camera", "detections", "doa", "fps", "detector", "array",
-                 "appearance", "image_size")
+                 "appearance", "image_size", "camera_position")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -409,7 +417,7 @@ def run_av163(args: argparse.Namespace) -> int:
     if args.seq < 1:
         raise InputError(f"--seq must be a positive integer, got {args.seq}")
     for o in ("audio", "camera", "detections", "doa", "fps", "array", "appearance",
-              "mapping"):
+              "mapping", "camera_position"):
         if getattr(args, o) is not None:
             raise InputError(f"--{o} does not apply to AV16.3 (its calibration, DOAs and video "
                              f"are used)")
@@ -507,7 +515,23 @@ def _recording_inputs(args: argparse.Namespace) -> RecordingInputs:
         audio=args.audio if use_audio else None,
         array=load_array(args.array) if use_audio else None,
         allow_clipping=args.allow_clipping, doa=args.doa,
-        fps=args.fps, image_size=_image_size(args, auto))
+        fps=args.fps, image_size=_image_size(args, auto),
+        camera_position=_camera_position(args, auto))
+
+
+def _camera_position(args: argparse.Namespace, auto: bool) -> tuple[float, ...] | None:
+    """--camera-position X,Y,Z in metres, for --camera auto (three finite numbers: checked by
+    :class:`RecordingInputs`)."""
+    if args.camera_position is None:
+        return None
+    if not auto:
+        raise InputError("--camera-position is for --camera auto (a camera file gives its "
+                         "own position)")
+    try:
+        return tuple(float(t) for t in args.camera_position.split(","))
+    except ValueError:
+        raise InputError(f"--camera-position: expected X,Y,Z in metres (e.g. -1.6,1.6,1.4), "
+                         f"got {args.camera_position!r}") from None
 
 
 def _image_size(args: argparse.Namespace, auto: bool) -> tuple[int, int] | None:

@@ -14,6 +14,7 @@ exception: the beamformer reads the whole recording at once.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -94,6 +95,10 @@ class RecordingInputs:
         Frame rate (default: the video's).
     image_size : (int, int) or None
         Image size of ``detections`` when neither a video nor a camera file gives it.
+    camera_position : ndarray (3,) or None
+        Where the camera to estimate stands in the array's frame, metres (None: at the array's
+        centre); only without ``camera``, whose file gives the position. Three numbers in
+        any sequence are taken.
     """
 
     camera: Path | None
@@ -107,6 +112,19 @@ class RecordingInputs:
     doa: Path | None = None
     fps: float | None = None
     image_size: tuple[int, int] | None = None
+    camera_position: np.ndarray | Sequence[float] | None = None
+
+    def __post_init__(self) -> None:
+        if self.camera_position is None:
+            return
+        pos = np.asarray(self.camera_position, dtype=float)
+        if pos.shape != (3,) or not np.all(np.isfinite(pos)):
+            raise InputError(f"the camera position must be three finite numbers (X,Y,Z in "
+                             f"metres, in the array's frame), got {self.camera_position!r}")
+        if self.camera is not None:
+            raise InputError("a camera position is for a camera estimated from the recording: "
+                             "the camera file gives its own", self.camera)
+        object.__setattr__(self, "camera_position", pos)
 
 
 @dataclass(frozen=True, eq=False)
@@ -467,7 +485,8 @@ def _calibrate(
     if camera is None:
         try:
             with stage("estimating the camera from the people seen talking"):
-                fit = fit_camera(ev)
+                fit = fit_camera(ev, position=None if inputs.camera_position is None
+                                 else np.asarray(inputs.camera_position, dtype=float))
         except ValueError as exc:
             raise InputError(f"--camera auto: {exc}") from None
         return fit.camera, fit, None
