@@ -37,6 +37,7 @@ from avtrack.av.persons_scene import (  # noqa: E402
     audio_peak_floor,
     audio_peaks,
     grid_span,
+    localizer_grid,
     scene_heat_maps,
     track_scene_persons,
 )
@@ -50,8 +51,9 @@ SUITES = {"walkout": ("walkout", 1.0), "walkout-pfov": ("walkout", 0.4),
 
 
 def cached_localization(d: Path, sc) -> tuple[list[np.ndarray], float, HeatMaps]:
-    """The scene's audio peaks, azimuth span and heat maps, computed once."""
-    cache = d / f"heat-{PERSONS_LOCALIZER}.npz"
+    """The scene's audio peaks, azimuth span and heat maps, computed once (per grid)."""
+    grid = localizer_grid(load_array(d / "array.json"))
+    cache = d / f"heat-{PERSONS_LOCALIZER}-{grid.n_azimuths}x{grid.n_elevations}.npz"
     if cache.is_file():
         z = np.load(cache, allow_pickle=False)
         heat = HeatMaps(z["frames"], z["time_s"], z["weights"], z["n_obs"])
