@@ -53,7 +53,7 @@ def run_av(args: argparse.Namespace) -> int:
 
     _progress(2, args.quiet)
     with progress.activity(f"tracking {inputs.n_frames} frames", args.quiet):
-        res = track_scene_persons(inputs, peaks=peaks, span=span)
+        res = track_scene_persons(inputs, peaks=peaks, span=span, heat=heat)
     t_track = time.perf_counter() - t0
     write_mot(out / "tracks.txt", res.tracks)
     write_rttm(out / "speech.rttm", res.speech)
