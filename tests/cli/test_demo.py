@@ -16,7 +16,8 @@ def test_demo_writes_scores_and_a_self_contained_report(tmp_path, capsys):
     printed = capsys.readouterr()
     for key in ("MOTA", "IDF1", "DER %", "DOA MAE"):
         assert key in printed.out
-    assert "5/5" in printed.err  # progress
+    assert "1/6 simulating the meeting" in printed.err  # progress, every step to the last
+    assert "6/6 writing the report" in printed.err
     scores = json.loads((out / "scores.json").read_text())
     assert 0 < scores["MOTA"] <= 100
     page = (out / "index.html").read_text()

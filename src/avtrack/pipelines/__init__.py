@@ -10,6 +10,8 @@
   :func:`track_own_recording`: persons tracked and diarized from a camera and a microphone
   array (``avtrack track-av``): a simulated scene directory in the array's direction space or
   on the image plane (VAVIT), an AV16.3 sequence, a recording of one's own.
+- :func:`run_demo_meeting`: ``avtrack demo``'s simulated meeting, tracked, diarized,
+  localized and scored.
 
 The acoustic paths read their input in blocks and hand their rows to a sink as they come, so
 memory stays flat in the recording's length (a recording of one's own is localized block by
@@ -41,6 +43,7 @@ if TYPE_CHECKING:
         track_scene_image,
     )
     from avtrack.pipelines.av_recording import RecordingInputs, RecordingRun, track_own_recording
+    from avtrack.pipelines.demo import DemoRun, run_demo_meeting
     from avtrack.pipelines.mot import MOTRun, track_mot_sequence
     from avtrack.pipelines.phd import PHDRun, track_av163
 
@@ -63,6 +66,8 @@ _MODULE_OF = {
     "RecordingInputs": "av_recording",
     "RecordingRun": "av_recording",
     "track_own_recording": "av_recording",
+    "DemoRun": "demo",
+    "run_demo_meeting": "demo",
 }
 
 
@@ -76,6 +81,7 @@ def __getattr__(name: str) -> Any:
 __all__ = [
     "AV163Run",
     "AVRun",
+    "DemoRun",
     "ImageRun",
     "LocalizeRun",
     "MOTRun",
@@ -84,6 +90,7 @@ __all__ = [
     "RecordingRun",
     "TrackRun",
     "localize_recording",
+    "run_demo_meeting",
     "track_av163",
     "track_av163_sequence",
     "track_mot_sequence",
