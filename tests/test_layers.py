@@ -90,3 +90,39 @@ def test_no_import_circle():
         if start not in state:
             visit(start, [start])
     assert circles == []
+
+
+#: The command line's shared modules: the only cli modules a command module imports.
+CLI_SHARED = {"avtrack.cli", "avtrack.cli.base", "avtrack.cli.progress"}
+
+
+def test_no_command_module_imports_another():
+    """The commands meet in the pipeline layer, not in each other: a cli module imports only
+    the command line's shared helpers (``cli.base``, ``cli.progress``), except the entry point
+    ``cli.main``, which registers them, and the batch runner's modules, which run them through
+    ``cli.main``'s parsers."""
+
+    def allowed(a: str, b: str) -> bool:
+        if b in CLI_SHARED or a == "avtrack.cli.main":
+            return True
+        return a.startswith("avtrack.cli.batch") and (
+            b.startswith("avtrack.cli.batch") or b == "avtrack.cli.main")
+
+    bad = [f"{a} -> {b}" for a, targets in _imports().items() if a.startswith("avtrack.cli.")
+           for b in targets if b.startswith("avtrack.cli") and not allowed(a, b)]
+    assert bad == []
+
+
+def test_no_benchmark_imports_the_command_line():
+    bench = ROOT.parents[1] / "benchmarks"
+    if not bench.is_dir():
+        import pytest
+
+        pytest.skip("benchmarks/ not next to the package (an installed copy)")
+    bad = []
+    for path in sorted(bench.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([node.module or ""] if isinstance(node, ast.ImportFrom)
+                     else [a.name for a in node.names] if isinstance(node, ast.Import) else [])
+            bad += [f"{path.name} -> {n}" for n in names if n.startswith("avtrack.cli")]
+    assert bad == []
