@@ -9,10 +9,16 @@ from the scene's detections and the peaks of its recording's calibration maps
 focal length, and MOTA / IDF1 / DER of the direction-space tracker with each camera (the same
 detections, appearance, audio peaks of the persons' maps and voice activity, as ``track-av``).
 
+With ``--av163 DATA_DIR``: AV16.3 sequence 30 camera 1 instead, through ``avtrack convert``
+and ``track-av --camera auto`` from its DOA CSV and video (the default face detector), the
+camera placed where the dataset's calibration puts it (``--camera-position``) and, for
+comparison, at the array: yaw and focal length against the calibration's.
+
 Usage::
 
     python benchmarks/bench_camera_auto.py --work /tmp/avt/camauto [--seeds 100-103]
         [--suites walkout meeting] [--duration 20]
+    python benchmarks/bench_camera_auto.py --work /tmp/avt/camauto --av163 ../shared/data/av16.3
 """
 
 from __future__ import annotations
@@ -98,13 +104,48 @@ def run_scene(path: Path) -> dict:
     return row
 
 
+def run_av163(data: Path, work: Path) -> None:
+    """Sequence 30 camera 1: the estimate at the calibration's camera position and at the
+    array, against the calibration."""
+    from avtrack.io.camera import read_camera_file
+    from avtrack.io.doa import wrap_azimuth
+
+    video = data / "seq30-2p-1101_cam1_divx_audio.avi"
+    conv = work / "av163-seq30-cam1"
+    if not (conv / "camera.yaml").is_file():
+        subprocess.run([sys.executable, "-m", "avtrack", "convert", "av16.3", str(data),
+                        "--seq", "30", "--cam", "1", "-o", str(conv), "-q"], check=True)
+    true = read_camera_file(conv / "camera.yaml")
+    where = ",".join(f"{v:.2f}" for v in true.position)
+    for name, extra in (("measured", [f"--camera-position={where}"]), ("at-array", [])):
+        out = work / f"av163-auto-{name}"
+        run = subprocess.run([sys.executable, "-m", "avtrack", "track-av", "--video",
+                              str(video), "--doa", str(conv / "doa.csv"), "--camera", "auto",
+                              *extra, "-o", str(out), "-q", "--no-report", "--force"],
+                             capture_output=True, text=True)
+        if run.returncode != 0:
+            print(f"scene=av163-30-1-{name}  failed: {run.stderr.strip()}")
+            continue
+        est = read_camera_file(out / "CAMERA.yaml")
+        print(f"scene=av163-30-1-{name}  position={where if extra else 'array'}  "
+              f"yaw_err={float(wrap_azimuth(est.yaw_deg - true.yaw_deg)):.2f}  "
+              f"pitch_err={est.pitch_deg - true.pitch_deg:.2f}  "
+              f"f_err_pct={100 * (est.fx / true.fx - 1):.2f} (of fx; "
+              f"{100 * (est.fx / true.fy - 1):.2f} of fy)", flush=True)
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work", type=Path, required=True)
+    p.add_argument("--av163", type=Path, metavar="DATA_DIR",
+                   help="AV16.3 sequence 30 camera 1 from this folder instead")
     p.add_argument("--seeds", default="100-103")
     p.add_argument("--suites", nargs="+", default=["walkout", "meeting"])
     p.add_argument("--duration", type=float, default=20.0)
     a = p.parse_args()
+    if a.av163 is not None:
+        run_av163(a.av163, a.work)
+        return 0
     lo, _, hi = a.seeds.partition("-")
     seeds = range(int(lo), int(hi or lo) + 1)
     rows = []
