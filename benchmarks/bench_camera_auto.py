@@ -92,6 +92,7 @@ def run_scene(path: Path) -> dict:
         "pitch_err": est.pitch_deg - true.pitch_deg,
         "f_err_pct": 100 * (est.fx / true.fx - 1),
         "f_std_pct": 100 * fit.focal_std_px / true.fx,
+        "f_bias_pct": 100 * fit.focal_bias_px / true.fx,
         "inliers": f"{fit.n_inliers}/{fit.n_directions}",
     }
     for name, cam in (("true", true), ("auto", est)):

@@ -104,6 +104,24 @@ def test_fit_places_a_camera_away_from_the_array_at_the_position_given():
     assert abs(centre.camera.yaw_deg + 25.0) > 10.0
 
 
+def test_focal_bias_is_what_directions_heard_nearer_each_other_do_to_the_focal_length():
+    """Audio directions heard AUDIO_BIAS_DEG nearer each other at their spread (as
+    reverberation pulls them towards the array's axis) fit equally well with a longer focal
+    length: longer by about ``focal_bias_px``, which the bootstrap does not show."""
+    from avtrack.av.calibrate import AUDIO_BIAS_DEG
+
+    cam = _true_camera(yaw=10.0, hfov=60.0)
+    ev = _recording(cam, noise=0.3)
+    fit = fit_camera(ev, position=cam.position)
+    spread = AUDIO_BIAS_DEG * (1.0 + fit.camera.fx / fit.focal_bias_px)  # degrees, 17.6 here
+    assert 10.0 < spread < 25.0
+    squeezed = 10.0 + (ev.azimuth_deg - 10.0) * (1.0 - AUDIO_BIAS_DEG / spread)
+    moved = fit_camera(replace(ev, azimuth_deg=squeezed), position=cam.position)
+    assert 0.8 < (moved.camera.fx - fit.camera.fx) / fit.focal_bias_px < 1.2
+    assert fit.focal_std_px < 0.2 * fit.focal_bias_px
+    assert f"+{fit.focal_bias_px:.0f} if the audio directions are heard" in fit.summary()
+
+
 def test_fit_measures_the_pitch_from_audio_elevations():
     cam = _true_camera(yaw=10.0, pitch=8.0, hfov=70.0)
     fit = fit_camera(_recording(cam, elevation=True), position=cam.position)
