@@ -142,22 +142,30 @@ def test_track_av_reads_the_converted_files(shared_data, tmp_path, capsys):
     assert np.all(d.min(axis=1) < 1.0)  # seen persons are where their boxes are
 
 
+def _sequence_30_converted(shared_data, tmp_path):
+    """AV16.3 folder, sequence 30's video and its files converted into ``tmp_path / "av30"``
+    (skips without the video or the default face detector)."""
+    pytest.importorskip("yuface", reason="the default face detector needs avtrack[detectors]")
+    folder = shared_data / "av16.3"
+    video = folder / "seq30-2p-1101_cam1_divx_audio.avi"
+    if not video.is_file():
+        pytest.skip(f"{video} not in the shared data")
+    conv = tmp_path / "av30"
+    assert main(["convert", "av16.3", str(folder), "--seq", "30", "--cam", "1", "-o",
+                 str(conv), "-q"]) == 0
+    return folder, video, conv
+
+
 @pytest.mark.slow
 def test_generic_path_on_sequence_30_from_its_video(shared_data, tmp_path):
     """The converted files with the sequence's video and the default face detector, as a user
     runs it: persons in the image within 15 px OSPA of posGT (14.9 measured; the dataset
     path with the same detector 14.1)."""
-    pytest.importorskip("yuface", reason="the default face detector needs avtrack[detectors]")
     from avtrack.metrics.ospa import ospa_sequence
     from avtrack.phd.likelihood import av163_truth
 
-    folder = shared_data / "av16.3"
-    video = folder / "seq30-2p-1101_cam1_divx_audio.avi"
-    if not video.is_file():
-        pytest.skip(f"{video} not in the shared data")
-    conv, out = tmp_path / "av30", tmp_path / "generic"
-    assert main(["convert", "av16.3", str(folder), "--seq", "30", "--cam", "1", "-o",
-                 str(conv), "-q"]) == 0
+    folder, video, conv = _sequence_30_converted(shared_data, tmp_path)
+    out = tmp_path / "generic"
     assert main(["track-av", "--video", str(video), "--doa", str(conv / "doa.csv"),
                  "--camera", str(conv / "camera.yaml"), "-o", str(out), "-q",
                  "--no-report"]) == 0
@@ -175,16 +183,10 @@ def test_camera_auto_at_the_measured_position_agrees_with_the_calibration(shared
     position given (it stands 2.3 m from the array and 1.4 m above it): yaw within 5 degrees
     of the dataset's calibration and focal length within 10 % of its fx (1.2 deg and +5.6 %
     measured; taken to stand at the array it comes out 40 deg off)."""
-    pytest.importorskip("yuface", reason="the default face detector needs avtrack[detectors]")
     from avtrack.io.camera import read_camera_file
 
-    folder = shared_data / "av16.3"
-    video = folder / "seq30-2p-1101_cam1_divx_audio.avi"
-    if not video.is_file():
-        pytest.skip(f"{video} not in the shared data")
-    conv, out = tmp_path / "av30", tmp_path / "auto"
-    assert main(["convert", "av16.3", str(folder), "--seq", "30", "--cam", "1", "-o",
-                 str(conv), "-q"]) == 0
+    _, video, conv = _sequence_30_converted(shared_data, tmp_path)
+    out = tmp_path / "auto"
     true = read_camera_file(conv / "camera.yaml")
     assert main(["track-av", "--video", str(video), "--doa", str(conv / "doa.csv"),
                  "--camera", "auto",
