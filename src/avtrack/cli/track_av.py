@@ -167,12 +167,9 @@ def _add_recording_options(p: argparse.ArgumentParser) -> None:
     add_array_option(rec, required=False,
                      note=", the microphones of --audio (positions in the array frame)")
     rec.add_argument("--camera", type=Path, metavar="CAMERA.yaml",
-                     help="camera intrinsics, image size and pose in the array frame (see "
-                     "below), checked against the recording (a warning names a likely mistake); "
-                     "'auto': estimate the camera's yaw, pitch (when the DOA CSV has "
-                     "elevations) and focal length from the people seen talking, the camera "
-                     "at the array's centre (or at --camera-position), and write it as "
-                     "OUT_DIR/CAMERA.yaml")
+                     help="camera intrinsics, image size and pose in the array frame, checked "
+                     "against the recording; 'auto': estimated from the people seen talking "
+                     "and written as OUT_DIR/CAMERA.yaml (both below)")
     rec.add_argument("--camera-position", metavar="X,Y,Z",
                      help="--camera auto: where the camera's lens is in the array's frame, "
                      "metres (x towards azimuth 0, z up), for a camera that does not stand "
