@@ -479,13 +479,7 @@ def fit_camera(
     inl = idx[np.abs(r) <= float(np.clip(3.0 * scale, 1.0, 2.5 * MATCH_DEG))]
     if inl.shape[0] < min_matches:
         raise ValueError(_too_little(int(inl.shape[0]), ev.n_directions, min_matches))
-    spread = float(np.ptp(ev.u[inl]))
-    if spread < 0.1 * ev.width:
-        raise ValueError(
-            f"too little evidence: the {inl.shape[0]} audio directions that match a person in "
-            f"the image all lie within {spread:.0f} px of each other across the image (need "
-            f"{0.1 * ev.width:.0f} px, a tenth of its width, to measure the focal length): "
-            f"the people seen talking stand in one place of the image")
+    _check_spread(ev, inl)
     args = (ev, inl, fit_pitch, pitch_deg, pos)
     x = least_squares(_residuals, x, bounds=(lo, hi), args=args).x
     r = _residuals(x, *args)[: inl.shape[0]]
@@ -496,17 +490,29 @@ def fit_camera(
     camera = PinholeCamera(f, f, 0.5 * ev.width, 0.5 * ev.height, ev.width, ev.height, pos,
                            yaw, pitch)
     f_std = float(np.std(np.exp(rep[:, 1]), ddof=1)) if rep.shape[0] > 1 else float("nan")
-    off_axis = np.degrees(np.arctan((ev.u[inl] - 0.5 * ev.width) / f))
     return CameraFit(
         camera, float(std[0]), float(std[2]) if fit_pitch else float("nan"), f_std,
         fit_pitch, ev.n_directions, int(inl.shape[0]), float(np.sqrt(np.mean(r**2))),
-        _focal_bias(f, float(np.std(off_axis))),
+        _focal_bias(f, ev.u[inl] - 0.5 * ev.width),
     )
 
 
-def _focal_bias(focal_px: float, spread_deg: float) -> float:
-    """:attr:`CameraFit.focal_bias_px` of a focal length whose inliers' angles from the
-    optical axis have the standard deviation ``spread_deg``."""
+def _check_spread(ev: CameraEvidence, inl: np.ndarray) -> None:
+    """Raise when the inliers ``inl`` lie too close together across the image to measure the
+    focal length (within a tenth of its width)."""
+    spread = float(np.ptp(ev.u[inl]))
+    if spread < 0.1 * ev.width:
+        raise ValueError(
+            f"too little evidence: the {inl.shape[0]} audio directions that match a person in "
+            f"the image all lie within {spread:.0f} px of each other across the image (need "
+            f"{0.1 * ev.width:.0f} px, a tenth of its width, to measure the focal length): "
+            f"the people seen talking stand in one place of the image")
+
+
+def _focal_bias(focal_px: float, offset_px: np.ndarray) -> float:
+    """:attr:`CameraFit.focal_bias_px` of a focal length whose inliers' boxes lie
+    ``offset_px`` ``(N,)`` across from the image centre."""
+    spread_deg = float(np.std(np.degrees(np.arctan(offset_px / focal_px))))
     if spread_deg <= AUDIO_BIAS_DEG:
         return math.inf
     return focal_px * AUDIO_BIAS_DEG / (spread_deg - AUDIO_BIAS_DEG)
