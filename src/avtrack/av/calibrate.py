@@ -228,16 +228,21 @@ def predicted_directions(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Azimuth and elevation (degrees, ``(P,)``) from the array of each pair's box; the
     azimuth as a line of microphones hears it when the evidence has a ``line_axis``."""
-    s = HEAD_HEIGHT_M / np.maximum(ev.h, 1.0)
-    xc = np.column_stack([s * (ev.u - 0.5 * ev.width), s * (ev.v - 0.5 * ev.height),
-                          s * focal_px])  # X_c = (H / h) (u - cx, v - cy, f)
-    a = xc @ _rotation(yaw_deg, pitch_deg) + position  # A = Rᵀ X_c + p
+    a = _camera_points(ev, focal_px) @ _rotation(yaw_deg, pitch_deg) + position  # Rᵀ X_c + p
     if ev.line_axis is not None:
         az = heard_azimuth(a, ev.line_axis)
     else:
         az = np.degrees(np.arctan2(a[:, 1], a[:, 0]))
     el = np.degrees(np.arctan2(a[:, 2], np.hypot(a[:, 0], a[:, 1])))
     return az, el
+
+
+def _camera_points(ev: CameraEvidence, focal_px: float) -> np.ndarray:
+    """Each pair's head in the camera's frame, ``X_c = (H / h) (u - cx, v - cy, f)``,
+    ``(P, 3)`` metres."""
+    s = HEAD_HEIGHT_M / np.maximum(ev.h, 1.0)
+    return np.column_stack([s * (ev.u - 0.5 * ev.width), s * (ev.v - 0.5 * ev.height),
+                            s * focal_px])
 
 
 def _starts(direction: np.ndarray) -> np.ndarray:
@@ -310,10 +315,7 @@ def _azimuths_at_yaws(ev: CameraEvidence, yaws: np.ndarray, pitch_deg: float,
     """Predicted azimuth ``(P, Y)`` (degrees) of each pair's box for a camera at ``position``
     turned to each of ``yaws`` ``(Y,)``: the box's point in the frame of the camera at yaw 0,
     ``B = R(0, pitch)^T X_c``, turned about the vertical, ``A = R_z(yaw) B + p``."""
-    s = HEAD_HEIGHT_M / np.maximum(ev.h, 1.0)
-    xc = np.column_stack([s * (ev.u - 0.5 * ev.width), s * (ev.v - 0.5 * ev.height),
-                          s * focal_px])
-    b = xc @ _rotation(0.0, pitch_deg)  # (P, 3)
+    b = _camera_points(ev, focal_px) @ _rotation(0.0, pitch_deg)  # (P, 3)
     c, sn = np.cos(np.radians(yaws))[None, :], np.sin(np.radians(yaws))[None, :]
     ax = b[:, :1] * c - b[:, 1:2] * sn + position[0]
     ay = b[:, :1] * sn + b[:, 1:2] * c + position[1]
@@ -701,9 +703,10 @@ def _far_camera(
     camera: PinholeCamera, ev: CameraEvidence, pos: np.ndarray, fit: CameraFit | None,
     kw: dict,
 ) -> tuple[CameraFit | None, str | None]:
-    """A given camera metres from the array: the fit started from it (the search over
-    hypotheses assumes a camera at the array) where it matches at least as many directions
-    as the searched one, then against a camera at the array. Returns the fit to compare the
+    """A given camera metres from the array: the fit started from it where it matches at
+    least as many directions as the one searched at its position (the search, a degree and
+    5 degrees of field of view apart, can miss a far camera's narrow optimum), then against a
+    camera at the array. Returns the fit to compare the
     camera with, and the evidence (None: none) that the camera is in the room's frame."""
     given = _try_fit(ev, position=pos, start=replace(camera, position=pos), **kw)
     if given is not None:
