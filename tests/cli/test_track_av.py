@@ -404,6 +404,8 @@ def test_track_av_camera_position_is_for_an_estimated_camera(main, tmp_path, cap
          "expected X,Y,Z in metres"),
         (["--camera", "auto", "--image-size", "640x480", "--camera-position", "1,nan,2"],
          "three finite numbers"),
+        (["--camera", "auto", "--image-size", "640x480", "--camera-position", "1500,0,300"],
+         "not millimetres"),
     ]
     for i, (extra, msg) in enumerate(cases):
         assert main([*base, *extra, "-o", str(tmp_path / f"o{i}")]) == 2

@@ -22,7 +22,14 @@ import numpy as np
 
 from avtrack.audio.arrays import MicArray
 from avtrack.audio.recording import BLOCK_SECONDS, FS, ArrayRecording
-from avtrack.av.calibrate import CameraCheck, CameraFit, camera_evidence, check_camera, fit_camera
+from avtrack.av.calibrate import (
+    MM_DISTANCE,
+    CameraCheck,
+    CameraFit,
+    camera_evidence,
+    check_camera,
+    fit_camera,
+)
 from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
 from avtrack.av.persons import PersonConfig
 from avtrack.av.persons_scene import (
@@ -124,6 +131,10 @@ class RecordingInputs:
         if self.camera is not None:
             raise InputError("a camera position is for a camera estimated from the recording: "
                              "the camera file gives its own", self.camera)
+        if float(np.linalg.norm(pos)) > MM_DISTANCE:
+            raise InputError(f"the camera position {self.camera_position!r} is "
+                             f"{float(np.linalg.norm(pos)):.0f} m from the array: give it in "
+                             f"metres, not millimetres")
         object.__setattr__(self, "camera_position", pos)
 
 
