@@ -16,6 +16,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +28,10 @@ from avtrack.io.datasets import find_shared_data
 from avtrack.io.mot import read_mot, write_mot
 from avtrack.metrics.mot import evaluate_mot, format_table
 from avtrack.visual.ovbt import track_mot
+
+if TYPE_CHECKING:
+    from avtrack.pipelines.demo import DemoRun
+    from avtrack.pipelines.mot import Stage
 
 EXAMPLES = """\
 examples:
@@ -129,7 +134,7 @@ def run_av(args: argparse.Namespace) -> int:
     return 0
 
 
-def _steps(n_steps: int, quiet: bool, first: int = 0):
+def _steps(n_steps: int, quiet: bool, first: int = 0) -> Stage:
     """The pipeline's ``stage``: a numbered line per step (``[##...] 2/6 localizing the
     talkers ...``) and an elapsed-time bar while it runs."""
     count = [first]
@@ -159,7 +164,7 @@ def _check_arguments(args: argparse.Namespace) -> Path:
     return out
 
 
-def _figures(done) -> dict:
+def _figures(done: DemoRun) -> dict:
     """The report's figures by title."""
     from avtrack.av.persons_scene import scene_geometry
     from avtrack.viz import report
@@ -185,7 +190,7 @@ def _figures(done) -> dict:
     }
 
 
-def _write_report(out: Path, done) -> None:
+def _write_report(out: Path, done: DemoRun) -> None:
     """Write the overlay videos, ``index.html`` and ``scores.json`` into ``out``."""
     from avtrack.viz import report
     from avtrack.viz.video import render_scene_video
