@@ -66,24 +66,28 @@ def score(scene, res) -> dict:
 def run_scene(path: Path) -> dict:
     from avtrack.audio.arrays import load_array
     from avtrack.audio.recording import ArrayRecording
-    from avtrack.av.calibrate import camera_evidence, fit_camera
+    from avtrack.av.calibrate import camera_evidence
     from avtrack.av.geometry import CameraGeometry
     from avtrack.av.persons_scene import track_persons
     from avtrack.io.doa import wrap_azimuth
     from avtrack.io.scene import load_scene
     from avtrack.localize.grid import line_axis
-    from avtrack.pipelines.av_recording import localize_for_persons
+    from avtrack.pipelines.av_recording import estimate_camera, localize_for_persons
 
     scene = load_scene(path)
     true = array_frame_camera(scene)
     array = load_array(path / "array.json")
     # one run, as track-av's: the persons' peaks and the peaks that place the camera
     audio = localize_for_persons(ArrayRecording(path / "audio.wav", array, quiet=True),
-                                 scene.fps, scene.n_frames, calibration=True)
+                                 scene.fps, scene.n_frames, calibration=True, yaw_map=True)
     peaks, span = audio.peaks, audio.span_deg
-    ev = camera_evidence(scene.detections, audio.calibration_peaks, scene.fps,
-                         scene.image_size, line_axis=line_axis(array))
-    fit = fit_camera(ev)
+
+    def evidence(azimuths):
+        return camera_evidence(scene.detections, azimuths, scene.fps, scene.image_size,
+                               line_axis=line_axis(array))
+
+    fit = estimate_camera(evidence(audio.calibration_peaks),
+                          None if audio.yaw_peaks is None else evidence(audio.yaw_peaks))
     est = fit.camera
     row = {
         "scene": path.name,

@@ -122,6 +122,25 @@ def test_focal_bias_is_what_directions_heard_nearer_each_other_do_to_the_focal_l
     assert f"+{fit.focal_bias_px:.0f} if the audio directions are heard" in fit.summary()
 
 
+def test_refine_yaw_takes_the_yaw_from_other_directions_and_keeps_the_focal_length():
+    """Directions heard 2.5 deg off to one side (an azimuth map of talkers above a planar
+    array) turn the fit by as much; refitted on directions without that offset, the yaw is
+    the camera's again and the focal length is the first fit's, exactly."""
+    from avtrack.av.calibrate import refine_yaw
+
+    cam = _true_camera(yaw=15.0, hfov=60.0)
+    ev = _recording(cam, noise=0.5, seed=4)
+    off = replace(ev, azimuth_deg=ev.azimuth_deg + 2.5)
+    fit = fit_camera(off, position=cam.position)
+    assert abs(fit.camera.yaw_deg - 17.5) < 0.5
+    turned = refine_yaw(fit, ev)
+    assert abs(turned.camera.yaw_deg - 15.0) < 0.5
+    assert turned.camera.fx == fit.camera.fx and turned.focal_std_px == fit.focal_std_px
+    assert 0 < turned.yaw_std_deg < 1.0
+    with pytest.raises(ValueError, match="hold_focal needs"):
+        fit_camera(ev, hold_focal=True)
+
+
 def test_fit_measures_the_pitch_from_audio_elevations():
     cam = _true_camera(yaw=10.0, pitch=8.0, hfov=70.0)
     fit = fit_camera(_recording(cam, elevation=True), position=cam.position)

@@ -176,6 +176,37 @@ def test_calibration_peaks_come_from_the_same_run_and_leave_the_persons_maps_alo
     assert any(len(a) for a in want)
 
 
+def test_yaw_peaks_are_the_calibration_map_over_the_elevations_the_array_hears(own):
+    """``yaw_map``: the peaks of :data:`CALIBRATION_LOCALIZER` run on
+    ``DirectionGrid.for_array`` (kept as its azimuth profile) for the 4-microphone array;
+    none without ``yaw_map``, and none for an array that hears no elevation."""
+    from avtrack.audio.arrays import MicArray
+    from avtrack.localize.grid import DirectionGrid, azimuth_profile
+
+    scene_dir, _, array = own
+    wav = scene_dir / "audio.wav"
+    audio = read_array_audio(wav, array, quiet=True)
+    grid = localizer_grid(array)
+    full = DirectionGrid.for_array(array)
+    assert full.n_elevations > 1
+    n_frames = int(np.floor(audio.shape[1] / FS * 25.0 + 1e-9))
+    maps = make_localizer(CALIBRATION_LOCALIZER, array, full).run(audio)
+    profile = azimuth_profile(maps.weights, full)[0]
+    want = audio_peaks(profile, maps.time_s, DirectionGrid(grid.azimuth_values, np.zeros(1)),
+                       25.0, n_frames, floor=audio_peak_floor(CALIBRATION_LOCALIZER))
+    rec = ArrayRecording(wav, array, quiet=True, block_s=0.3)
+    got = localize_for_persons(rec, 25.0, n_frames, vad=False, calibration=True, yaw_map=True)
+    for a, b in zip(got.yaw_peaks, want, strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-6)
+    assert any(len(a) for a in want)
+    assert localize_for_persons(rec, 25.0, n_frames, vad=False,
+                                calibration=True).yaw_peaks is None
+    from avtrack.pipelines.av_recording import _yaw_localizer
+
+    pair = MicArray("pair", array.positions[:2])  # a line: no elevation heard
+    assert _yaw_localizer(pair) is None and _yaw_localizer(array) is not None
+
+
 def test_calibration_peaks_are_read_at_the_time_the_maps_describe():
     """A talker who speaks over [0.5, 2.5) s, from -30 deg before 1.5 s and +30 deg after;
     the maps trail by 0.2 s. Without the voice activity the peaks of the video frames just

@@ -25,10 +25,12 @@ from avtrack.audio.recording import BLOCK_SECONDS, FS, ArrayRecording
 from avtrack.av.calibrate import (
     MM_DISTANCE,
     CameraCheck,
+    CameraEvidence,
     CameraFit,
     camera_evidence,
     check_camera,
     fit_camera,
+    refine_yaw,
 )
 from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
 from avtrack.av.persons import PersonConfig
@@ -56,8 +58,9 @@ from avtrack.io.doa import azimuths_per_frame, directions_per_frame, read_doa_cs
 from avtrack.io.mot import MOTData, read_mot
 from avtrack.io.video import VideoInfo, iter_frames, probe_video
 from avtrack.localize import HeatMaps, make_localizer
+from avtrack.localize.base import Localizer
 from avtrack.localize.cgmm_eg import CGMMLocalizer
-from avtrack.localize.grid import DirectionGrid, line_axis
+from avtrack.localize.grid import DirectionGrid, azimuth_profile, line_axis
 from avtrack.pipelines.audio import blocks_then_end
 from avtrack.pipelines.av import AVRun, beamform_voices
 from avtrack.pipelines.mot import (
@@ -184,6 +187,11 @@ class PersonsAudio:
     calibration_peaks : list of ndarray or None
         Peak azimuths per video frame of :data:`CALIBRATION_LOCALIZER`'s maps, which place
         the camera (None when not asked for).
+    yaw_peaks : list of ndarray or None
+        The same on the elevations the array can tell apart
+        (:meth:`~avtrack.localize.grid.DirectionGrid.for_array`), which turn the camera
+        (:func:`~avtrack.av.calibrate.refine_yaw`); None when not asked for or when the array
+        hears no elevation (a line of microphones, an array known by its HRIRs).
     """
 
     peaks: list[np.ndarray]
@@ -192,6 +200,7 @@ class PersonsAudio:
     span_deg: float
     activity: VoiceActivity | None
     calibration_peaks: list[np.ndarray] | None = None
+    yaw_peaks: list[np.ndarray] | None = None
 
 
 def localize_for_persons(
@@ -202,6 +211,7 @@ def localize_for_persons(
     vad: bool = True,
     localizer: str = PERSONS_LOCALIZER,
     calibration: bool = False,
+    yaw_map: bool = False,
     stage: Stage = no_stage,
 ) -> PersonsAudio:
     """The recording's heat maps and their peaks per video frame
@@ -210,7 +220,9 @@ def localize_for_persons(
     found in a second pass: what the whole signal gives, with memory of one block besides the
     heat maps. ``calibration``: also the peaks of :data:`CALIBRATION_LOCALIZER` (from the
     same run when ``localizer`` is the map it keeps as :attr:`presence`, ``dprtf-eg``), read
-    at the times its maps describe when the voice activity is found (:func:`_calibration_peaks`).
+    at the times its maps describe when the voice activity is found (:func:`_calibration_peaks`),
+    and, with ``yaw_map``, of its maps over the elevations the array hears (kept as their
+    profile over azimuth: :attr:`PersonsAudio.yaw_peaks`).
 
     Parameters
     ----------
@@ -233,13 +245,19 @@ def localize_for_persons(
     n = locs[0].stft_config.n_frames(recording.info.samples)
     weights = np.empty((n, grid.size))
     calib = np.empty((n, grid.size), dtype=np.float32) if calibration else None
+    yaw_loc = _yaw_localizer(recording.array) if calibration and yaw_map else None
+    yaw_maps = None if yaw_loc is None else np.empty((n, grid.n_azimuths), dtype=np.float32)
     n_obs = np.empty(n, dtype=np.int64)
     done = 0
-    for loc in locs:
-        loc.reset()
+    for loc in [*locs, yaw_loc]:
+        if loc is not None:
+            loc.reset()
     with stage(f"localizing {recording.info.samples / FS:.1f} s"):
         for block in blocks_then_end(recording):
             parts = [loc.flush() if block is None else loc.process(block) for loc in locs]
+            if yaw_loc is not None and yaw_maps is not None:
+                part = yaw_loc.flush() if block is None else yaw_loc.process(block)
+                yaw_maps[part.frames] = azimuth_profile(part.weights, yaw_loc.grid)[0]
             if calib is not None:
                 calib[parts[-1].frames] = parts[-1].weights
                 if len(locs) == 1 and len(parts[0]):  # the thesis weights of the same run
@@ -263,8 +281,42 @@ def localize_for_persons(
             activity = voice_activity_blocks((b[0] for b in recording.blocks()), level.value())
     calibration_peaks = None if calib is None else _calibration_peaks(
         calib, heat.time_s, grid, fps, n_frames, activity)
+    yaw_peaks = None if yaw_maps is None else _calibration_peaks(
+        yaw_maps, heat.time_s, DirectionGrid(grid.azimuth_values, np.zeros(1)), fps, n_frames,
+        activity)
     return PersonsAudio(peaks, heat if activity is not None else None, grid, grid_span(grid),
-                        activity, calibration_peaks)
+                        activity, calibration_peaks, yaw_peaks)
+
+
+def estimate_camera(
+    ev: CameraEvidence, yaw_ev: CameraEvidence | None, position: np.ndarray | None = None,
+) -> CameraFit:
+    """``--camera auto``'s camera: fitted on ``ev`` (:attr:`PersonsAudio.calibration_peaks`
+    and the boxes, :func:`~avtrack.av.calibrate.fit_camera`, the camera at ``position``), its
+    yaw refitted on ``yaw_ev`` (:attr:`PersonsAudio.yaw_peaks`,
+    :func:`~avtrack.av.calibrate.refine_yaw`) unless that has too little evidence.
+
+    Raises
+    ------
+    ValueError
+        Too little evidence in ``ev``.
+    """
+    fit = fit_camera(ev, position=position)
+    if yaw_ev is None:
+        return fit
+    try:
+        return refine_yaw(fit, yaw_ev)
+    except ValueError:
+        return fit
+
+
+def _yaw_localizer(array: MicArray) -> Localizer | None:
+    """:data:`CALIBRATION_LOCALIZER` on the elevations ``array`` can tell apart
+    (:meth:`~avtrack.localize.grid.DirectionGrid.for_array`), or None when it hears none."""
+    grid = DirectionGrid.for_array(array)
+    if grid.n_elevations == 1 or array.n_mics <= 2:
+        return None
+    return make_localizer(CALIBRATION_LOCALIZER, array, grid)
 
 
 def _calibration_peaks(
@@ -352,14 +404,15 @@ def track_own_recording(
         peaks = azimuths_per_frame(read_doa_csv(inputs.doa), fps, n_frames)
     elif recording is not None:
         audio = localize_for_persons(recording, fps, n_frames, vad=vad, calibration=True,
-                                     stage=stage)
+                                     yaw_map=camera is None, stage=stage)
         peaks = audio.peaks
     fit = check = None
     if peaks is not None:
         placing = peaks if audio is None or audio.calibration_peaks is None else (
             audio.calibration_peaks)
         camera, fit, check = _calibrate(inputs, camera, dets, placing, fps, image_size,
-                                        n_frames, strict, stage)
+                                        n_frames, strict, stage,
+                                        None if audio is None else audio.yaw_peaks)
     if camera is None:
         raise InputError("--camera auto needs the audio's directions")
     vcfg = config.visual
@@ -483,9 +536,10 @@ def _visual_inputs(
 def _calibrate(
     inputs: RecordingInputs, camera: PinholeCamera | None, dets: MOTData,
     peaks: list[np.ndarray], fps: float, image_size: tuple[int, int], n_frames: int,
-    strict: bool, stage: Stage,
+    strict: bool, stage: Stage, yaw_peaks: list[np.ndarray] | None = None,
 ) -> tuple[PinholeCamera, CameraFit | None, CameraCheck | None]:
-    """No camera: the camera estimated from the people seen talking; a camera file: checked
+    """No camera: the camera estimated from the people seen talking (its yaw refitted on
+    ``yaw_peaks`` when given, :func:`~avtrack.av.calibrate.refine_yaw`); a camera file: checked
     against the recording (``strict``: its first warning is an error). Returns the camera
     to track with, the estimate and the check."""
     elevations = None
@@ -496,8 +550,11 @@ def _calibrate(
     if camera is None:
         try:
             with stage("estimating the camera from the people seen talking"):
-                fit = fit_camera(ev, position=None if inputs.camera_position is None
-                                 else np.asarray(inputs.camera_position, dtype=float))
+                fit = estimate_camera(
+                    ev, None if yaw_peaks is None else camera_evidence(
+                        dets, yaw_peaks, fps, image_size, None, box_height(inputs), axis),
+                    position=None if inputs.camera_position is None
+                    else np.asarray(inputs.camera_position, dtype=float))
         except ValueError as exc:
             raise InputError(f"--camera auto: {exc}") from None
         return fit.camera, fit, None
