@@ -313,8 +313,8 @@ def estimate_camera(
 def _yaw_localizer(array: MicArray) -> Localizer | None:
     """:data:`CALIBRATION_LOCALIZER` on the elevations ``array`` can tell apart
     (:meth:`~avtrack.localize.grid.DirectionGrid.for_array`), or None when it hears none."""
-    grid = DirectionGrid.for_array(array)
-    if grid.n_elevations == 1 or array.n_mics <= 2:
+    grid = DirectionGrid.for_array(array)  # one row for a line of microphones or HRIRs
+    if grid.n_elevations == 1:
         return None
     return make_localizer(CALIBRATION_LOCALIZER, array, grid)
 
