@@ -223,7 +223,12 @@ def _dense_search(ev, pitch_deg):
     """``_search`` written over whole (pairs x yaws) arrays."""
     import math
 
-    from avtrack.av.calibrate import MATCH_DEG, _starts, predicted_directions
+    from avtrack.av.calibrate import (
+        MATCH_DEG,
+        UNSEEN_TALKER_WEIGHT,
+        _starts,
+        predicted_directions,
+    )
     from avtrack.io.doa import wrap_azimuth
 
     starts = _starts(ev.direction)
@@ -237,6 +242,8 @@ def _dense_search(ev, pitch_deg):
         k = np.add.reduceat(hit.astype(np.int64), starts, axis=0)  # boxes each direction hits
         score = np.where(k > 0, 1.0 / np.maximum(k, 1), 0.0).sum(axis=0)
         first = ev.azimuth_deg[starts]
+        inside = np.abs(wrap_azimuth(first[:, None] - yaws[None, :])) < 0.5 * hfov - MATCH_DEG
+        score -= UNSEEN_TALKER_WEIGHT * (inside & (k == 0)).sum(axis=0)
         mean = np.degrees(np.arctan2(np.sin(np.radians(first)).sum(),
                                      np.cos(np.radians(first)).sum()))
         heard = wrap_azimuth(first - mean)
@@ -263,8 +270,8 @@ def test_search_a_few_yaws_at_a_time_is_the_dense_formula(chunk, monkeypatch):
 
 
 def test_check_is_silent_for_the_right_camera_metres_from_the_array():
-    """A camera 2 m behind the array (as AV16.3's): the search over hypotheses assumes a
-    camera at the array, so the check starts the fit from the given camera instead."""
+    """A camera 2 m behind the array (as AV16.3's): the check fits the camera at the given
+    place (and from the given camera) and finds nothing to say."""
     cam = _true_camera(yaw=0.0, position=(-2.0, 0.3, 0.4))
     chk = check_camera(cam, _recording(cam))
     assert chk.warnings == (), chk.warnings
