@@ -291,13 +291,13 @@ def _search(ev: CameraEvidence, pitch_deg: float,
     best_score = -np.inf
     for hfov in np.arange(20.0, 151.0, 5.0):
         f = 0.5 * ev.width / math.tan(math.radians(hfov) / 2.0)
+        if at_centre:  # the yaw only adds to every predicted azimuth
+            g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
+            off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
         hits, scores = [], []
         for y0 in range(0, yaws.size, _YAW_CHUNK):  # (pairs x yaws arrays, a slice at a time)
             yaw = yaws[y0 : y0 + _YAW_CHUNK]
-            if at_centre:  # the yaw only adds to every predicted azimuth
-                if y0 == 0:
-                    g, _ = predicted_directions(ev, 0.0, pitch_deg, f, np.zeros(3))
-                    off = wrap_azimuth(ev.azimuth_deg - g)  # the yaw each pair asks for
+            if at_centre:
                 resid = wrap_azimuth(off[:, None] - yaw[None, :])
             else:
                 resid = wrap_azimuth(ev.azimuth_deg[:, None]

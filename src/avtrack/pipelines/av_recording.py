@@ -255,7 +255,7 @@ def localize_for_persons(
     with stage(f"localizing {recording.info.samples / FS:.1f} s"):
         for block in blocks_then_end(recording):
             parts = [loc.flush() if block is None else loc.process(block) for loc in locs]
-            if yaw_loc is not None and yaw_maps is not None:
+            if yaw_loc is not None and yaw_maps is not None:  # (both or neither)
                 part = yaw_loc.flush() if block is None else yaw_loc.process(block)
                 yaw_maps[part.frames] = azimuth_profile(part.weights, yaw_loc.grid)[0]
             if calib is not None:
