@@ -17,7 +17,7 @@ comparison, at the array: yaw and focal length against the calibration's.
 Usage::
 
     python benchmarks/bench_camera_auto.py --work /tmp/avt/camauto [--seeds 100-103]
-        [--suites walkout meeting] [--duration 20]
+        [--suites walkout meeting] [--duration 20] [--pitch -10]
     python benchmarks/bench_camera_auto.py --work /tmp/avt/camauto --av163 ../shared/data/av16.3
 """
 
@@ -73,6 +73,7 @@ def run_scene(path: Path) -> dict:
     from avtrack.io.scene import load_scene
     from avtrack.localize.grid import line_axis
     from avtrack.pipelines.av_recording import estimate_camera, localize_for_persons
+    from avtrack.visual.horizon import estimate_horizon
 
     scene = load_scene(path)
     true = array_frame_camera(scene)
@@ -87,13 +88,16 @@ def run_scene(path: Path) -> dict:
                                line_axis=line_axis(array))
 
     fit = estimate_camera(evidence(audio.calibration_peaks),
-                          None if audio.yaw_peaks is None else evidence(audio.yaw_peaks))
+                          None if audio.yaw_peaks is None else evidence(audio.yaw_peaks),
+                          horizon=estimate_horizon(scene.detections, scene.fps,
+                                                           scene.image_size[1]))
     est = fit.camera
     row = {
         "scene": path.name,
         "yaw_err": float(wrap_azimuth(est.yaw_deg - true.yaw_deg)),
         "yaw_std": fit.yaw_std_deg,
         "pitch_err": est.pitch_deg - true.pitch_deg,
+        "pitch_from": fit.pitch_source,
         "f_err_pct": 100 * (est.fx / true.fx - 1),
         "f_std_pct": 100 * fit.focal_std_px / true.fx,
         "f_bias_pct": 100 * fit.focal_bias_px / true.fx,
@@ -139,6 +143,23 @@ def run_av163(data: Path, work: Path) -> None:
               f"{100 * (est.fx / true.fy - 1):.2f} of fy)", flush=True)
 
 
+def scenario(suite: str, seed: int, duration: float, pitch: float | None, work: Path) -> str:
+    """The named scenario ``suite``, or its ``seed``'s draw written in ``work`` with its camera
+    pitched."""
+    if pitch is None:
+        return suite
+    import yaml
+
+    from avtrack.simulate.library import named_scenario
+
+    cfg = named_scenario(suite, seed, duration)
+    cfg["camera"]["pitch_deg"] = float(pitch)
+    path = work / f"{suite}-pitch{pitch:g}-{seed}.yaml"
+    work.mkdir(parents=True, exist_ok=True)
+    path.write_text(yaml.safe_dump(cfg))
+    return str(path)
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--work", type=Path, required=True)
@@ -147,6 +168,8 @@ def main() -> int:
     p.add_argument("--seeds", default="100-103")
     p.add_argument("--suites", nargs="+", default=["walkout", "meeting"])
     p.add_argument("--duration", type=float, default=20.0)
+    p.add_argument("--pitch", type=float, metavar="DEG",
+                   help="tilt the scenario's camera by this pitch (degrees, negative down)")
     a = p.parse_args()
     if a.av163 is not None:
         run_av163(a.av163, a.work)
@@ -156,11 +179,13 @@ def main() -> int:
     rows = []
     for suite in a.suites:
         for seed in seeds:
-            d = a.work / f"{suite}-{seed}"
+            tilt = "" if a.pitch is None else f"-pitch{a.pitch:g}"
+            d = a.work / f"{suite}{tilt}-{seed}"
             if not (d / "scene.yaml").is_file():
-                subprocess.run([sys.executable, "-m", "avtrack", "simulate", suite,
-                                "-o", str(d), "--seed", str(seed), "--duration",
-                                str(a.duration), "-q"], check=True)
+                subprocess.run([sys.executable, "-m", "avtrack", "simulate",
+                                scenario(suite, seed, a.duration, a.pitch, a.work), "-o",
+                                str(d), "--seed",
+                                str(seed), "--duration", str(a.duration), "-q"], check=True)
             row = run_scene(d)
             rows.append(row)
             print("  ".join(f"{k}={v:.2f}" if isinstance(v, float) else f"{k}={v}"

@@ -104,6 +104,38 @@ def test_fit_places_a_camera_away_from_the_array_at_the_position_given():
     assert abs(centre.camera.yaw_deg + 25.0) > 10.0
 
 
+def test_level_with_horizon_holds_the_pitch_of_the_heads_and_refits_the_rest():
+    """The camera of the test above fitted level (the audio has no elevation), then with the
+    pitch of the heads' horizon (the true camera's horizon row, 4 px uncertain): pitch,
+    yaw and focal length are the camera's; a horizon too uncertain, or none, changes
+    nothing, nor does it replace a pitch the audio measured."""
+    import math
+
+    from avtrack.av.calibrate import MAX_HORIZON_STD_DEG, level_with_horizon
+    from avtrack.visual.horizon import Horizon
+
+    pos = (-1.6, 1.6, 1.4)
+    cam = _true_camera(yaw=-25.0, pitch=-17.0, hfov=50.0, position=pos)
+    ev = _recording(cam, origin=pos[:2], height=(0.45, 0.6, 0.4), noise=0.5)
+    level = fit_camera(ev, position=np.array(pos))
+    assert level.pitch_source == "held" and level.camera.pitch_deg == 0.0
+    row = cam.cy + cam.fy * math.tan(math.radians(-17.0))
+    fit = level_with_horizon(level, ev, Horizon(row, 4.0, 3, 12))
+    assert fit.pitch_source == "heads" and fit.pitch_fitted
+    assert abs(fit.camera.pitch_deg + 17.0) < 1.0
+    assert abs(fit.camera.yaw_deg + 25.0) < 1.0 and abs(fit.camera.fx / cam.fx - 1.0) < 0.05
+    # 4 px at the focal length: degrees(4 / f) / (1 + tan(17 deg)^2), 0.31 deg
+    t = math.tan(math.radians(fit.camera.pitch_deg))
+    assert fit.pitch_std_deg == pytest.approx(math.degrees(4.0 / fit.camera.fx) / (1 + t * t),
+                                              rel=1e-3)
+    assert "from the horizon of the heads" in fit.summary()
+    vague = Horizon(row, 1.1 * cam.fx * math.radians(MAX_HORIZON_STD_DEG), 1, 4)
+    assert level_with_horizon(level, ev, vague) is level
+    assert level_with_horizon(level, ev, None) is level
+    heard = fit_camera(_recording(_true_camera(pitch=8.0), elevation=True))
+    assert level_with_horizon(heard, ev, Horizon(row, 4.0, 3, 12)) is heard
+
+
 def test_focal_bias_is_what_directions_heard_nearer_each_other_do_to_the_focal_length():
     """Audio directions heard AUDIO_BIAS_DEG nearer each other at their spread (as
     reverberation pulls them towards the array's axis) fit equally well with a longer focal
@@ -144,7 +176,7 @@ def test_refine_yaw_takes_the_yaw_from_other_directions_and_keeps_the_focal_leng
 def test_fit_measures_the_pitch_from_audio_elevations():
     cam = _true_camera(yaw=10.0, pitch=8.0, hfov=70.0)
     fit = fit_camera(_recording(cam, elevation=True), position=cam.position)
-    assert fit.pitch_fitted
+    assert fit.pitch_fitted and fit.pitch_source == "audio"
     assert abs(fit.camera.pitch_deg - 8.0) < 1.5
     assert abs(fit.camera.yaw_deg - 10.0) < 1.0
 

@@ -111,8 +111,9 @@ x axis = azimuth 0, z up; the array's centre at the origin):
   pitch_deg: 0.0       # ... and elevation
   avtrack track-av --video rec.mp4 --audio rec.wav --array nao4 --camera camera.yaml -o out
   avtrack track-av --detections det.txt --fps 25 --doa doa.csv --camera camera.yaml -o out
-No camera file: --camera auto estimates yaw, focal length (and pitch from a DOA CSV's
-elevations) from the people seen talking, prints it with its uncertainty and writes
+No camera file: --camera auto estimates yaw, focal length and pitch (from a DOA CSV's
+elevations, else from people walking in depth; held level when neither measures it) from the
+people seen talking, prints it with its uncertainty and writes
 OUT_DIR/CAMERA.yaml; a camera file given is checked against the recording the same way
 (a warning names the likely mistake; --strict: exit 2):
   avtrack track-av --video rec.mp4 --audio rec.wav --array nao4 --camera auto -o out

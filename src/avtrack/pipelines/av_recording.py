@@ -30,6 +30,7 @@ from avtrack.av.calibrate import (
     camera_evidence,
     check_camera,
     fit_camera,
+    level_with_horizon,
     refine_yaw,
 )
 from avtrack.av.geometry import HEAD_HEIGHT_M, CameraGeometry
@@ -72,6 +73,7 @@ from avtrack.pipelines.mot import (
 )
 from avtrack.visual.detect import BOX_HEIGHT_M, DEFAULT_FACE_DETECTOR
 from avtrack.visual.histograms import detection_histograms
+from avtrack.visual.horizon import Horizon, estimate_horizon
 
 
 @dataclass(frozen=True)
@@ -290,9 +292,12 @@ def localize_for_persons(
 
 def estimate_camera(
     ev: CameraEvidence, yaw_ev: CameraEvidence | None, position: np.ndarray | None = None,
+    horizon: Horizon | None = None,
 ) -> CameraFit:
     """``--camera auto``'s camera: fitted on ``ev`` (:attr:`PersonsAudio.calibration_peaks`
     and the boxes, :func:`~avtrack.av.calibrate.fit_camera`, the camera at ``position``), its
+    pitch read from the heads' ``horizon`` (:func:`~avtrack.visual.horizon.estimate_horizon`,
+    :func:`~avtrack.av.calibrate.level_with_horizon`) when the audio does not measure it, its
     yaw refitted on ``yaw_ev`` (:attr:`PersonsAudio.yaw_peaks`,
     :func:`~avtrack.av.calibrate.refine_yaw`) unless that has too little evidence.
 
@@ -301,7 +306,7 @@ def estimate_camera(
     ValueError
         Too little evidence in ``ev``.
     """
-    fit = fit_camera(ev, position=position)
+    fit = level_with_horizon(fit_camera(ev, position=position), ev, horizon)
     if yaw_ev is None:
         return fit
     try:
@@ -554,7 +559,8 @@ def _calibrate(
                     ev, None if yaw_peaks is None else camera_evidence(
                         dets, yaw_peaks, fps, image_size, None, box_height(inputs), axis),
                     position=None if inputs.camera_position is None
-                    else np.asarray(inputs.camera_position, dtype=float))
+                    else np.asarray(inputs.camera_position, dtype=float),
+                    horizon=estimate_horizon(dets, fps, image_size[1]))
         except ValueError as exc:
             raise InputError(f"--camera auto: {exc}") from None
         return fit.camera, fit, None
