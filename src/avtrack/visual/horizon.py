@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
-from scipy.optimize import least_squares, linear_sum_assignment
+from scipy.optimize import linear_sum_assignment
 
 from avtrack.io.mot import MOTData
 from avtrack.metrics.mot import box_iou
@@ -146,8 +146,9 @@ def estimate_horizon(
     h = box[:, 3].copy()
     win = max(1, round(SMOOTH_S * fps))
     keep: list[int] = []
-    for lab in np.unique(labels):
-        rows = np.flatnonzero(labels == lab)
+    order = np.argsort(labels, kind="stable")  # each tracklet's rows, in frame order
+    starts = np.flatnonzero(np.r_[True, np.diff(labels[order]) != 0])
+    for lab, rows in zip(labels[order][starts], np.split(order, starts[1:]), strict=True):
         if rows.shape[0] < 2 * win:
             continue
         h[rows] = uniform_filter1d(h[rows], win, mode="nearest")
@@ -160,21 +161,51 @@ def estimate_horizon(
     # blocks of BLOCK_S seconds of one tracklet, the bootstrap's units
     _, block = np.unique(np.c_[which, (t // BLOCK_S).astype(np.int64)], axis=0,
                          return_inverse=True)
-    blocks = [np.flatnonzero(block.ravel() == i) for i in range(int(block.max(initial=-1)) + 1)]
-    if len(blocks) < MIN_BLOCKS:
+    block = block.ravel()
+    n_blocks = int(block.max(initial=-1)) + 1
+    if n_blocks < MIN_BLOCKS:
         return None
-
-    def fit(rows: np.ndarray) -> float:
-        k = which[rows]
-
-        def resid(x: np.ndarray) -> np.ndarray:
-            return v[rows] - x[0] - x[1:][k] * h[rows]  # v = v0 + s_k h
-
-        x0 = np.r_[np.median(v[rows]), np.zeros(len(keep))]
-        return float(least_squares(resid, x0, loss="soft_l1", f_scale=ROW_SCALE_PX).x[0])
-
-    row = fit(np.arange(v.shape[0]))
+    row = _common_intercept(v, h, which, np.ones(v.shape[0]))
     rng = np.random.default_rng(seed)
-    reps = [fit(np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))]))
-            for _ in range(n_bootstrap)]
-    return Horizon(row, float(np.std(reps, ddof=1)), len(keep), len(blocks))
+    reps = [_common_intercept(v, h, which, np.bincount(
+        rng.integers(0, n_blocks, n_blocks), minlength=n_blocks)[block].astype(float))
+        for _ in range(n_bootstrap)]
+    return Horizon(row, float(np.std(reps, ddof=1)), len(keep), n_blocks)
+
+
+def _common_intercept(v: np.ndarray, h: np.ndarray, which: np.ndarray, mult: np.ndarray,
+                      n_iter: int = 30) -> float:
+    r"""The intercept :math:`v_0` of ``v = v0 + s_k h`` ``(N,)``, one slope per tracklet
+    ``which`` ``(N,)``, rows counted ``mult`` times, with the ``soft_l1`` loss of scale
+    :data:`ROW_SCALE_PX`: iteratively reweighted least squares, each slope solved for
+    in closed form given :math:`v_0` (so memory and time grow with the rows only, not with
+    rows times tracklets, as a dense least-squares Jacobian would).
+
+    For weights ``w``, a tracklet's slope is :math:`s_k = (S_{hv} - v_0 S_h) / S_{hh}`
+    (sums over its rows), so each residual is :math:`a - v_0 b` with
+    :math:`a = v - h S_{hv}/S_{hh}`, :math:`b = 1 - h S_h/S_{hh}`, and
+    :math:`v_0 = \sum w a b / \sum w b^2`; the weights of the loss
+    :math:`\rho(z) = 2(\sqrt{1 + z} - 1)`, :math:`z = (e / c)^2`, are
+    :math:`1 / \sqrt{1 + z}`.
+    """
+    n_k = int(which.max(initial=-1)) + 1
+    w = mult.copy()
+    v0 = float(np.median(v))
+    for _ in range(n_iter):
+        s_hh = np.bincount(which, w * h * h, n_k)
+        s_hv = np.bincount(which, w * h * v, n_k)
+        s_h = np.bincount(which, w * h, n_k)
+        inv = np.divide(1.0, s_hh, out=np.zeros(n_k), where=s_hh > 0)[which]
+        a = v - h * s_hv[which] * inv
+        b = 1.0 - h * s_h[which] * inv
+        den = float(np.sum(w * b * b))
+        if den <= 0.0:
+            break
+        new = float(np.sum(w * a * b)) / den
+        e = a - new * b
+        w = mult / np.sqrt(1.0 + (e / ROW_SCALE_PX) ** 2)
+        if abs(new - v0) < 1e-6:
+            v0 = new
+            break
+        v0 = new
+    return v0
