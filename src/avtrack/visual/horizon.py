@@ -140,6 +140,8 @@ def estimate_horizon(
     box = detections.boxes
     whole = (box[:, 1] > EDGE_PX) & (box[:, 1] + box[:, 3] < image_height - EDGE_PX)
     detections = detections.select(whole)
+    if len(detections) == 0:
+        return None
     labels = link_tracklets(detections)
     box = detections.boxes
     v = box[:, 1] + 0.5 * box[:, 3]  # row of the box centre
