@@ -251,6 +251,27 @@ def test_check_names_millimetres():
     assert len(chk.warnings) == 1
 
 
+def test_check_names_a_pitch_of_the_wrong_sign_from_the_heads_horizon():
+    """A camera 12 degrees down written with pitch +12: the audio (no elevations) cannot tell,
+    the heads' horizon can; the right pitch, or no horizon, passes."""
+    import math
+
+    from avtrack.visual.horizon import Horizon
+
+    cam = _true_camera(yaw=10.0, pitch=-12.0)
+    ev = _recording(cam)
+    hz = Horizon(cam.cy + cam.fy * math.tan(math.radians(-12.0)), 6.0, 3, 20)
+    chk = check_camera(replace(cam, pitch_deg=12.0), ev, horizon=hz)
+    assert len(chk.warnings) == 1 and "pitch_deg's sign wrong" in chk.warnings[0], chk.warnings
+    assert "pitch -12.0 deg" in chk.warnings[0]
+    off = check_camera(replace(cam, pitch_deg=0.0), ev, horizon=hz)
+    assert len(off.warnings) == 1 and "pitch_deg -12.0 would fit" in off.warnings[0]
+    right = check_camera(cam, ev, horizon=hz)
+    assert right.warnings == () and right.fit.pitch_source == "heads"
+    assert abs(right.fit.camera.pitch_deg + 12.0) < 0.5
+    assert check_camera(replace(cam, pitch_deg=12.0), ev).warnings == ()
+
+
 def _dense_search(ev, pitch_deg):
     """``_search`` written over whole (pairs x yaws) arrays."""
     import math

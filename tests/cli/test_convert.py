@@ -177,6 +177,24 @@ def test_generic_path_on_sequence_30_from_its_video(shared_data, tmp_path):
 
 
 @pytest.mark.slow
+def test_a_camera_file_pitched_the_wrong_way_is_named_on_sequence_30(shared_data, tmp_path,
+                                                                    capsys):
+    """The converted camera file with pitch_deg's sign flipped (+16.7, a camera looking up):
+    its DOA CSV has no elevations, but the two people walking in depth put the heads' horizon
+    at -14.5 deg, and the warning says the sign is wrong; --strict stops (exit 2)."""
+    _, video, conv = _sequence_30_converted(shared_data, tmp_path)
+    text = (conv / "camera.yaml").read_text()
+    flipped = tmp_path / "flipped.yaml"
+    flipped.write_text(text.replace("pitch_deg: -", "pitch_deg: "))
+    args = ["track-av", "--video", str(video), "--doa", str(conv / "doa.csv"), "--camera",
+            str(flipped), "--no-report"]
+    assert main([*args, "-o", str(tmp_path / "out")]) == 0
+    err = capsys.readouterr().err
+    assert "pitch_deg's sign wrong" in err, err
+    assert main([*args, "-o", str(tmp_path / "strict"), "--strict"]) == 2
+
+
+@pytest.mark.slow
 def test_camera_auto_at_the_measured_position_agrees_with_the_calibration(shared_data,
                                                                          tmp_path):
     """Sequence 30 camera 1 through the generic path with --camera auto, the camera's

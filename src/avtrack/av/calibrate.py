@@ -705,7 +705,8 @@ def _try_fit(ev: CameraEvidence, **kw) -> CameraFit | None:
 
 
 def check_camera(
-    camera: PinholeCamera, ev: CameraEvidence, *, name: str = "CAMERA.yaml", **fit_kw
+    camera: PinholeCamera, ev: CameraEvidence, *, name: str = "CAMERA.yaml",
+    horizon: Horizon | None = None, **fit_kw
 ) -> CameraCheck:
     """Compare a camera given in the array's frame with the recording's evidence.
 
@@ -723,6 +724,9 @@ def check_camera(
     ev : CameraEvidence
     name : str
         How the messages call the camera file.
+    horizon : Horizon, optional
+        The horizon of the heads (:func:`~avtrack.visual.horizon.estimate_horizon`): when the
+        audio has no elevations, the camera's pitch is checked against it.
     **fit_kw
         Passed on to :func:`fit_camera`.
     """
@@ -791,7 +795,29 @@ def check_camera(
                 f"elevations of the people seen to {est.pitch_deg:.1f} deg "
                 f"(+-{fit.pitch_std_deg:.1f}): is pitch_deg's sign or the array's up axis "
                 f"wrong?")
+    elif horizon is not None:
+        pitch = horizon.pitch_deg(camera.fy, camera.cy)
+        std = horizon.pitch_std_deg(camera.fy, camera.cy)
+        warnings.extend(_horizon_warning(camera, pitch, std, horizon.row_px, name))
+        # the recording's pitch is the horizon's (yaw and focal length fitted at the given one)
+        fit = replace(fit, camera=replace(est, pitch_deg=pitch), pitch_std_deg=std,
+                      pitch_source="heads")
     return CameraCheck(fit, tuple(warnings))
+
+
+def _horizon_warning(camera: PinholeCamera, pitch: float, std: float, row: float,
+                     name: str) -> list[str]:
+    """A warning when ``camera``'s pitch differs from the heads' horizon's ``pitch`` (at the
+    camera's own focal length and principal row; standard deviation ``std``, horizon row
+    ``row``) by more than three standard deviations and 3 degrees."""
+    if not abs(camera.pitch_deg - pitch) > max(3.0 * std, 3.0):
+        return []
+    hint = ("is pitch_deg's sign wrong? (negative looks down)"
+            if abs(camera.pitch_deg + pitch) <= max(3.0 * std, 3.0) else
+            f"is pitch_deg wrong? (pitch_deg {pitch:.1f} would fit)")
+    return [f"{name} tilts the camera to pitch {camera.pitch_deg:.1f} deg, but the heads of the "
+            f"people seen walking towards or away from it meet on the horizon of pitch "
+            f"{pitch:.1f} deg (+-{std:.1f}; row {row:.0f}): {hint}"]
 
 
 def _beaten(

@@ -566,7 +566,8 @@ def _calibrate(
         return fit.camera, fit, None
     path = inputs.camera if inputs.camera is not None else Path("CAMERA.yaml")
     with stage(f"checking {path.name} against the recording"):
-        chk = check_camera(camera, ev, name=path.name)
+        chk = check_camera(camera, ev, name=path.name,
+                           horizon=estimate_horizon(dets, fps, image_size[1]))
     if strict and chk.warnings:
         raise InputError(f"--strict: {chk.warnings[0]}", path)
     return camera, None, chk
