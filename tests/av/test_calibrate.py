@@ -256,6 +256,7 @@ def test_check_names_a_pitch_of_the_wrong_sign_from_the_heads_horizon():
     the heads' horizon can; the right pitch, or no horizon, passes."""
     import math
 
+    from avtrack.av.calibrate import MAX_HORIZON_STD_DEG
     from avtrack.visual.horizon import Horizon
 
     cam = _true_camera(yaw=10.0, pitch=-12.0)
@@ -270,6 +271,9 @@ def test_check_names_a_pitch_of_the_wrong_sign_from_the_heads_horizon():
     assert right.warnings == () and right.fit.pitch_source == "heads"
     assert abs(right.fit.camera.pitch_deg + 12.0) < 0.5
     assert check_camera(replace(cam, pitch_deg=12.0), ev).warnings == ()
+    vague = Horizon(hz.row_px, 1.1 * cam.fy * math.radians(MAX_HORIZON_STD_DEG), 1, 4)
+    unsure = check_camera(replace(cam, pitch_deg=12.0), ev, horizon=vague)
+    assert unsure.warnings == () and unsure.fit.pitch_source == "held"
 
 
 def _dense_search(ev, pitch_deg):

@@ -726,7 +726,8 @@ def check_camera(
         How the messages call the camera file.
     horizon : Horizon, optional
         The horizon of the heads (:func:`~avtrack.visual.horizon.estimate_horizon`): when the
-        audio has no elevations, the camera's pitch is checked against it.
+        audio has no elevations, the camera's pitch is checked against it (unless its pitch is
+        less certain than :data:`MAX_HORIZON_STD_DEG`).
     **fit_kw
         Passed on to :func:`fit_camera`.
     """
@@ -795,7 +796,8 @@ def check_camera(
                 f"elevations of the people seen to {est.pitch_deg:.1f} deg "
                 f"(+-{fit.pitch_std_deg:.1f}): is pitch_deg's sign or the array's up axis "
                 f"wrong?")
-    elif horizon is not None:
+    elif (horizon is not None
+          and horizon.pitch_std_deg(camera.fy, camera.cy) <= MAX_HORIZON_STD_DEG):
         pitch = horizon.pitch_deg(camera.fy, camera.cy)
         std = horizon.pitch_std_deg(camera.fy, camera.cy)
         warnings.extend(_horizon_warning(camera, pitch, std, horizon.row_px, name))
