@@ -788,6 +788,18 @@ def check_camera(
             f"{name} gives the focal length {camera.fx:.0f} px, the recording "
             f"{est.fx:.0f} px (+-{fit.focal_std_px:.0f}): is fx for another image size "
             f"(the video is {ev.width}x{ev.height}) or another lens zoom?")
+    fit, pitch_warnings = _check_pitch(camera, fit, horizon, name)
+    warnings.extend(pitch_warnings)
+    return CameraCheck(fit, tuple(warnings))
+
+
+def _check_pitch(camera: PinholeCamera, fit: CameraFit, horizon: Horizon | None,
+                 name: str) -> tuple[CameraFit, list[str]]:
+    """:func:`check_camera`'s pitch: against the audio elevations when ``fit`` measured it,
+    else against the heads' ``horizon`` when it is certain enough (its pitch then replaces the
+    one ``fit`` held). Returns the fit to report and the warnings."""
+    est = fit.camera
+    warnings: list[str] = []
     if fit.pitch_fitted:
         dp = camera.pitch_deg - est.pitch_deg
         if abs(dp) > max(3.0 * fit.pitch_std_deg, 3.0):
@@ -804,7 +816,7 @@ def check_camera(
         # the recording's pitch is the horizon's (yaw and focal length fitted at the given one)
         fit = replace(fit, camera=replace(est, pitch_deg=pitch), pitch_std_deg=std,
                       pitch_source="heads")
-    return CameraCheck(fit, tuple(warnings))
+    return fit, warnings
 
 
 def _horizon_warning(camera: PinholeCamera, pitch: float, std: float, row: float,
