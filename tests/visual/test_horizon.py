@@ -129,6 +129,20 @@ def test_tracklets_link_overlapping_boxes_and_break_at_gaps():
         link_tracklets(d, min_iou=0.0)
 
 
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 10_000), n=st.integers(1, 60))
+def test_tracklets_never_hold_two_boxes_of_one_frame(seed, n):
+    """Random boxes over a few frames: every box gets a label, and no label appears twice
+    in a frame (a tracklet is one head)."""
+    rng = np.random.default_rng(seed)
+    frames = np.sort(rng.integers(1, 8, n))
+    boxes = np.column_stack([rng.uniform(0, 200, (n, 2)), rng.uniform(5, 60, (n, 2))])
+    lab = link_tracklets(MOTData(frames, -np.ones(n), boxes, np.ones(n)))
+    assert lab.shape == (n,) and np.all(lab >= 0)
+    for f in np.unique(frames):
+        assert len(np.unique(lab[frames == f])) == np.sum(frames == f)
+
+
 def test_bad_fps_is_a_clear_error():
     d = MOTData(np.array([1]), np.array([-1]), np.array([[0.0, 0.0, 10.0, 10.0]]),
                 np.ones(1))
